@@ -1,0 +1,156 @@
+"""The ``geocel`` command-line tool."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+app = typer.Typer(
+    name="geocel",
+    help="Explicit Coupled Eulerian–Lagrangian simulation of pile installation in sand.",
+    no_args_is_help=True,
+    add_completion=False,
+)
+console = Console()
+
+
+def _floats(text: str | None, n: int, name: str) -> np.ndarray | None:
+    if text is None:
+        return None
+    try:
+        vals = np.array([float(v) for v in text.split(",")])
+    except ValueError as err:
+        raise typer.BadParameter(f"{name} must be {n} comma-separated numbers, got {text!r}") from err
+    if vals.size != n:
+        raise typer.BadParameter(f"{name} must have {n} comma-separated numbers, got {vals.size}")
+    return vals
+
+
+def _key_table(title: str, figures: dict[str, float]) -> Table:
+    t = Table(title=title, show_header=True)
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    for k, v in figures.items():
+        t.add_row(k, f"{v:.6g}")
+    return t
+
+
+@app.command("element-test")
+def element_test_cmd(
+    kind: Annotated[
+        str,
+        typer.Argument(
+            help="isotropic | oedometer | triaxial | undrained-triaxial | simple-shear | cyclic-triaxial | path"
+        ),
+    ],
+    material: Annotated[str, typer.Option(help="preset name (fraction-e, karlsruhe, …) or TOML file")] = "fraction-e",
+    e0: Annotated[float, typer.Option(help="initial void ratio")] = 0.65,
+    p0: Annotated[float, typer.Option(help="initial mean pressure, Pa (compression positive)")] = 100.0e3,
+    k0: Annotated[float, typer.Option(help="initial σ_h/σ_v")] = 1.0,
+    strain: Annotated[
+        float | None,
+        typer.Option(
+            help="final logarithmic strain: axial (triaxial, oedometer), volumetric (isotropic), γ (simple shear)"
+        ),
+    ] = None,
+    steps: Annotated[int, typer.Option(help="number of increments (per loading branch)")] = 1000,
+    cycles: Annotated[int, typer.Option(help="cyclic-triaxial: number of cycles")] = 3,
+    amplitude: Annotated[
+        float | None, typer.Option(help="cyclic: strain amplitude (−) or, with --control stress, q amplitude (Pa)")
+    ] = None,
+    control: Annotated[str, typer.Option(help="cyclic-triaxial: strain | stress")] = "strain",
+    undrained: Annotated[bool, typer.Option(help="cyclic-triaxial: constant volume")] = False,
+    extension: Annotated[bool, typer.Option(help="triaxial kinds: extension instead of compression")] = False,
+    intergranular: Annotated[str, typer.Option(help="initial intergranular strain: zero | vertical")] = "zero",
+    path: Annotated[Path | None, typer.Option(help="path: CSV with columns dexx,deyy,dezz,dexy,dexz,deyz")] = None,
+    stress: Annotated[str | None, typer.Option(help="path: initial stress 'sxx,syy,szz,sxy,sxz,syz' in Pa")] = None,
+    delta: Annotated[str | None, typer.Option(help="path: initial intergranular strain, 6 comma values")] = None,
+    tol: Annotated[float, typer.Option(help="local relative error tolerance of the substepping")] = 1.0e-6,
+    out: Annotated[Path, typer.Option(help="output directory")] = Path("element-test"),
+) -> None:
+    """Run an element test; writes OUT/element_test.csv, key_figures.json and element_test.png."""
+    import pandas as pd
+
+    from .config.materials import load_material
+    from .element_test.driver import element_test
+
+    try:
+        mat = load_material(material)
+        stress0 = _floats(stress, 6, "--stress")
+        state0 = None
+        delta0 = _floats(delta, 6, "--delta")
+        if delta0 is not None:
+            state0 = np.concatenate([[e0], delta0])
+        table = None
+        n_total = steps
+        if kind == "path":
+            if path is None:
+                raise ValueError("kind 'path' needs --path CSV")
+            table = pd.read_csv(path)
+            n_total = len(table)
+        elif kind == "oedometer":
+            n_total = 2 * steps
+        elif kind == "cyclic-triaxial":
+            n_total = max(1, steps // 4) * (4 * cycles)
+        with Progress(
+            TextColumn(f"[bold]{kind}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), console=console
+        ) as bar:
+            task = bar.add_task(kind, total=n_total)
+            res = element_test(
+                kind, mat, e0=e0, p0=p0, k0=k0, strain=strain, steps=steps, cycles=cycles, amplitude=amplitude,
+                control=control, drained=not undrained, extension=extension, intergranular=intergranular,
+                path=table, stress0=stress0, state0=state0, tol=tol,
+                progress=lambda i: bar.update(task, completed=i),
+            )
+    except (ValueError, OSError) as err:
+        console.print(f"[red]error:[/red] {err}")
+        raise typer.Exit(2) from err
+    paths = res.write(out)
+    console.print(_key_table(f"{kind} — {mat.model}", res.key_figures()))
+    fired = {k: v for k, v in res.flag_counts.items() if v}
+    if fired:
+        console.print(f"special rules fired (steps): {fired}")
+    for note in res.notes:
+        console.print(f"[yellow]note:[/yellow] {note}")
+    for name, p in paths.items():
+        console.print(f"{name}: {p}")
+
+
+@app.command()
+def demo(
+    out: Annotated[Path, typer.Option(help="output directory")] = Path("geocel-demo"),
+) -> None:
+    """Embedded default job. Until the pile solver lands: drained triaxial tests on dense and loose
+    Fraction E sand (the paper's parameters), with plots and key figures."""
+    from .config.materials import Hypoplastic
+    from .element_test.driver import element_test
+
+    mat = Hypoplastic.fraction_e()
+    cases = {"dense": 0.60, "loose": 0.75}
+    for label, e0 in cases.items():
+        console.print(f"[bold]drained triaxial compression, {label} Fraction E (e0 = {e0}, p0 = 100 kPa)")
+        res = element_test("triaxial", mat, e0=e0, p0=100e3, strain=0.4, steps=2000)
+        paths = res.write(out / f"triaxial-{label}")
+        console.print(_key_table(f"{label} sand", res.key_figures()))
+        console.print(f"plots: {paths['png']}\ndata:  {paths['csv']}")
+    console.print(f"[green]demo finished[/green]: results in {out.resolve()}")
+
+
+@app.command()
+def presets() -> None:
+    """List the named material parameter sets."""
+    from .config.materials import PRESETS
+
+    for name, vals in PRESETS.items():
+        console.print(f"[bold]{name}[/bold]: " + ", ".join(f"{k}={v}" for k, v in vals.items()))
+
+
+def main() -> None:  # pragma: no cover
+    sys.exit(app())

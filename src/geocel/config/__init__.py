@@ -1,0 +1,1 @@
+"""Typed, validated configuration (scenario file ↔ Python objects)."""

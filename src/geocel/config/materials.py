@@ -1,0 +1,241 @@
+"""Typed, validated soil-model parameters (the ``[soil]`` table of a scenario file).
+
+Every field carries its unit in the description; angles are given in degrees and converted to radians
+when the parameter array for the compiled kernels is built (:meth:`to_array`).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, ClassVar, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from ..materials import elastic as _el
+from ..materials import hypoplastic as _hp
+from ..materials.kernels import ELASTIC, HYPOPLASTIC, MOHR_COULOMB
+
+
+class _Material(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+    grain_density: float = Field(2650.0, gt=0.0, le=10000.0, description="grain density ρ_s, kg/m³")
+
+    def dry_density(self, e: float | np.ndarray) -> float | np.ndarray:
+        """Dry density ρ_d = ρ_s / (1 + e), kg/m³."""
+        return self.grain_density / (1.0 + np.asarray(e))
+
+    def initial_state(self, e0: float, intergranular: str = "zero") -> np.ndarray:
+        """State vector of one point: ``[e]`` for the simple models."""
+        return np.array([e0], dtype=float)
+
+
+class Elastic(_Material):
+    """Isotropic linear elasticity (hypoelastic with Jaumann rate)."""
+
+    model: Literal["elastic"] = "elastic"
+    youngs_modulus: float = Field(50.0e6, gt=0.0, description="Young's modulus E, Pa")
+    poisson_ratio: float = Field(0.3, gt=-1.0, lt=0.5, description="Poisson's ratio ν, -")
+
+    model_id: ClassVar[int] = ELASTIC
+    state_names: ClassVar[tuple[str, ...]] = _el.STATE_NAMES
+
+    def to_array(self) -> np.ndarray:
+        return np.array([self.youngs_modulus, self.poisson_ratio], dtype=float)
+
+
+class MohrCoulomb(_Material):
+    """Linear elastic, perfectly plastic Mohr–Coulomb with non-associated flow and a tension cut-off."""
+
+    model: Literal["mohr-coulomb"] = "mohr-coulomb"
+    youngs_modulus: float = Field(50.0e6, gt=0.0, description="Young's modulus E, Pa")
+    poisson_ratio: float = Field(0.3, gt=-1.0, lt=0.5, description="Poisson's ratio ν, -")
+    friction_angle: float = Field(30.0, gt=0.0, lt=90.0, description="friction angle φ, degrees")
+    dilatancy_angle: float = Field(0.0, ge=0.0, lt=90.0, description="dilatancy angle ψ ≤ φ, degrees")
+    cohesion: float = Field(0.0, ge=0.0, description="cohesion c, Pa")
+    tension_cutoff: float = Field(0.0, ge=0.0, description="largest principal stress σ_t ≤ c·cot φ, Pa")
+
+    model_id: ClassVar[int] = MOHR_COULOMB
+    state_names: ClassVar[tuple[str, ...]] = ("e",)
+
+    @model_validator(mode="after")
+    def _check(self) -> MohrCoulomb:
+        if self.dilatancy_angle > self.friction_angle:
+            raise ValueError(
+                f"dilatancy_angle = {self.dilatancy_angle}° must not exceed friction_angle = "
+                f"{self.friction_angle}°"
+            )
+        apex = self.cohesion / math.tan(math.radians(self.friction_angle))
+        if self.tension_cutoff > apex * (1 + 1e-12):
+            raise ValueError(
+                f"tension_cutoff = {self.tension_cutoff} Pa must be ≤ c·cot φ = {apex:.6g} Pa (the apex)"
+            )
+        return self
+
+    def to_array(self) -> np.ndarray:
+        return np.array(
+            [
+                self.youngs_modulus,
+                self.poisson_ratio,
+                math.radians(self.friction_angle),
+                math.radians(self.dilatancy_angle),
+                self.cohesion,
+                self.tension_cutoff,
+            ],
+            dtype=float,
+        )
+
+
+class Hypoplastic(_Material):
+    """von Wolffersdorff (1996) hypoplasticity with Niemunis & Herle (1997) intergranular strain."""
+
+    model: Literal["hypoplastic"] = "hypoplastic"
+    phi_c: float = Field(30.0, gt=0.0, lt=90.0, description="critical-state friction angle φ_c, degrees")
+    hs: float = Field(1354.0e6, gt=0.0, description="granular hardness h_s, Pa")
+    n: float = Field(0.34, gt=0.0, lt=1.0, description="exponent n of Bauer's compression law, -")
+    e_d0: float = Field(0.49, gt=0.0, description="minimum void ratio at p = 0, -")
+    e_c0: float = Field(0.76, gt=0.0, description="critical void ratio at p = 0, -")
+    e_i0: float = Field(0.86, gt=0.0, description="maximum void ratio at p = 0, -")
+    alpha: float = Field(0.18, ge=0.0, description="exponent α of the pyknotropy factor f_d, -")
+    beta: float = Field(1.27, ge=0.0, description="exponent β of the stiffness factor f_e, -")
+    m_T: float = Field(3.07, ge=1.0, description="stiffness multiplier m_T for a 90° strain-path change, -")
+    m_R: float = Field(5.16, ge=1.0, description="stiffness multiplier m_R for a 180° reversal, -")
+    R: float = Field(1.0e-4, gt=0.0, lt=0.1, description="size R of the elastic strain range, -")
+    beta_r: float = Field(0.58, gt=0.0, description="evolution exponent β_r of the intergranular strain, -")
+    chi: float = Field(5.74, gt=0.0, description="interpolation exponent χ, -")
+    intergranular_strain: bool = Field(True, description="use the intergranular-strain extension")
+    p_min: float = Field(100.0, gt=0.0, le=1.0e5, description="low-stress floor p_min, Pa (see docs)")
+
+    model_id: ClassVar[int] = HYPOPLASTIC
+    state_names: ClassVar[tuple[str, ...]] = _hp.STATE_NAMES
+
+    @model_validator(mode="after")
+    def _check(self) -> Hypoplastic:
+        if not (self.e_d0 < self.e_c0 < self.e_i0):
+            raise ValueError(
+                f"void ratios must satisfy e_d0 < e_c0 < e_i0, got e_d0={self.e_d0}, e_c0={self.e_c0}, "
+                f"e_i0={self.e_i0}"
+            )
+        if self.m_R < self.m_T:
+            raise ValueError(f"m_R = {self.m_R} must be ≥ m_T = {self.m_T} (both ≥ 1)")
+        if self.fb_bracket() <= 0.0:
+            raise ValueError(
+                f"the f_b denominator 3 + a² − a√3((e_i0−e_d0)/(e_c0−e_d0))^α = {self.fb_bracket():.4g} must "
+                "be positive: check phi_c, alpha and the void ratios"
+            )
+        return self
+
+    def a(self) -> float:
+        s = math.sin(math.radians(self.phi_c))
+        return math.sqrt(3.0) * (3.0 - s) / (2.0 * math.sqrt(2.0) * s)
+
+    def fb_bracket(self) -> float:
+        a = self.a()
+        ratio = (self.e_i0 - self.e_d0) / (self.e_c0 - self.e_d0)
+        return 3.0 + a * a - a * math.sqrt(3.0) * ratio**self.alpha
+
+    def to_array(self) -> np.ndarray:
+        prm = np.zeros(_hp.N_PARAMS)
+        prm[_hp.P_PHI_C] = math.radians(self.phi_c)
+        prm[_hp.P_HS] = self.hs
+        prm[_hp.P_N] = self.n
+        prm[_hp.P_ED0] = self.e_d0
+        prm[_hp.P_EC0] = self.e_c0
+        prm[_hp.P_EI0] = self.e_i0
+        prm[_hp.P_ALPHA] = self.alpha
+        prm[_hp.P_BETA] = self.beta
+        prm[_hp.P_MT] = self.m_T
+        prm[_hp.P_MR] = self.m_R
+        prm[_hp.P_R] = self.R
+        prm[_hp.P_BETA_R] = self.beta_r
+        prm[_hp.P_CHI] = self.chi
+        prm[_hp.P_IGS] = 1.0 if self.intergranular_strain else 0.0
+        prm[_hp.P_PMIN] = self.p_min
+        _hp.derived_constants(prm)
+        return prm
+
+    def critical_void_ratio(self, p: float | np.ndarray) -> float | np.ndarray:
+        """e_c(p) from Bauer's law, p in Pa (compression positive)."""
+        return self.e_c0 * np.exp(-((3.0 * np.asarray(p) / self.hs) ** self.n))
+
+    def limit_void_ratios(self, p: float | np.ndarray) -> tuple[Any, Any, Any]:
+        """(e_d, e_c, e_i) at mean pressure p, Pa."""
+        f = np.exp(-((3.0 * np.asarray(p) / self.hs) ** self.n))
+        return self.e_d0 * f, self.e_c0 * f, self.e_i0 * f
+
+    def initial_state(self, e0: float, intergranular: str = "vertical") -> np.ndarray:
+        """[e, δ] with δ fully mobilised in vertical compression (‖δ‖ = R along −e_z⊗e_z) or zero."""
+        state = np.zeros(_hp.N_STATE)
+        state[0] = e0
+        if intergranular == "vertical":
+            state[3] = -self.R
+        elif intergranular != "zero":
+            raise ValueError(f"intergranular = {intergranular!r}: expected 'vertical' or 'zero'")
+        return state
+
+    @classmethod
+    def fraction_e(cls, **overrides: Any) -> Hypoplastic:
+        """Fraction E silica sand: the paper's Table 1 and 2 (Alkateeb et al. 2026)."""
+        return cls(**{**PRESETS["fraction-e"], **overrides})
+
+    @classmethod
+    def karlsruhe(cls, **overrides: Any) -> Hypoplastic:
+        """Karlsruhe sand base set (Herle & Gudehus 1999) with typical intergranular-strain parameters."""
+        return cls(**{**PRESETS["karlsruhe"], **overrides})
+
+
+Material = Annotated[Elastic | MohrCoulomb | Hypoplastic, Field(discriminator="model")]
+
+#: named parameter sets (the ``preset`` key of ``[soil]``)
+PRESETS: dict[str, dict[str, Any]] = {
+    "fraction-e": dict(
+        model="hypoplastic", phi_c=30.0, hs=1354.0e6, n=0.34, e_d0=0.49, e_c0=0.76, e_i0=0.86, alpha=0.18,
+        beta=1.27, m_T=3.07, m_R=5.16, R=1.0e-4, beta_r=0.58, chi=5.74,
+    ),
+    # base set of the reference page; intergranular strain: typical values of Niemunis & Herle (1997)
+    "karlsruhe": dict(
+        model="hypoplastic", phi_c=30.0, hs=5800.0e6, n=0.28, e_d0=0.53, e_c0=0.84, e_i0=1.00, alpha=0.13,
+        beta=1.0, m_T=2.0, m_R=5.0, R=1.0e-4, beta_r=0.5, chi=6.0,
+    ),
+    "mohr-coulomb-sand": dict(
+        model="mohr-coulomb", youngs_modulus=50.0e6, poisson_ratio=0.3, friction_angle=30.0,
+        dilatancy_angle=0.0, cohesion=0.0,
+    ),
+    "elastic": dict(model="elastic", youngs_modulus=50.0e6, poisson_ratio=0.3),
+}
+
+_CLASSES = {"elastic": Elastic, "mohr-coulomb": MohrCoulomb, "hypoplastic": Hypoplastic}
+
+
+def material_from_dict(table: dict[str, Any]) -> Elastic | MohrCoulomb | Hypoplastic:
+    """Build a material from a ``[soil]``-style table: ``preset`` (optional) plus overriding keys.
+
+    Keys that belong to the scenario (``layers``) are ignored here."""
+    table = {k: v for k, v in table.items() if k != "layers"}
+    preset = table.pop("preset", None)
+    base: dict[str, Any] = {}
+    if preset is not None:
+        if preset not in PRESETS:
+            raise ValueError(f"[soil] preset = {preset!r} is unknown; choose one of {sorted(PRESETS)}")
+        base = dict(PRESETS[preset])
+    merged = {**base, **table}
+    model = merged.get("model", "hypoplastic")
+    if model not in _CLASSES:
+        raise ValueError(f"[soil] model = {model!r} is unknown; choose one of {sorted(_CLASSES)}")
+    merged["model"] = model
+    return _CLASSES[model](**merged)
+
+
+def load_material(spec: str) -> Elastic | MohrCoulomb | Hypoplastic:
+    """A preset name (``fraction-e``) or a TOML file with a ``[soil]`` table (or the keys at top level)."""
+    if spec in PRESETS:
+        return material_from_dict({"preset": spec})
+    path = Path(spec)
+    if not path.is_file():
+        raise ValueError(f"material {spec!r} is neither a preset ({', '.join(sorted(PRESETS))}) nor a TOML file")
+    with path.open("rb") as f:
+        data = tomllib.load(f)
+    return material_from_dict(data.get("soil", data))

@@ -1,0 +1,1 @@
+"""Element-test driver: single material point under mixed stress/strain control."""

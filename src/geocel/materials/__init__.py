@@ -1,0 +1,1 @@
+"""Compiled soil-model kernels behind one interface (:mod:`geocel.materials.kernels`)."""

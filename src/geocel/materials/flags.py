@@ -1,0 +1,33 @@
+"""Bit flags a material update returns: which documented special rule fired for a cell.
+
+The batched kernel returns them per cell; callers count them (DESIGN.md §4.3: rules are counted,
+never silently applied).
+"""
+
+LOW_STRESS = 1  #: p below p_min or a tensile principal stress: reset to the isotropic floor -p_min·I
+VOID_BELOW_ED = 2  #: e < e_d: evaluated with e = e_d (f_d = 0)
+VOID_ABOVE_EI = 4  #: e > e_i: evaluated with e = e_i
+ZERO_INCREMENT = 8  #: ‖Δε‖ == 0: constitutive update skipped (only co-rotation applied)
+RHO_CLIPPED = 16  #: ‖δ‖ > R after an explicit step: δ scaled back to ‖δ‖ = R
+PLASTIC = 32  #: Mohr–Coulomb: plastic return mapping applied
+TENSION_CUTOFF = 64  #: Mohr–Coulomb: tension cut-off active
+SUBSTEP_LIMIT = 128  #: adaptive substepping hit its minimum step / maximum count
+
+NAMES = {
+    LOW_STRESS: "low_stress",
+    VOID_BELOW_ED: "void_below_ed",
+    VOID_ABOVE_EI: "void_above_ei",
+    ZERO_INCREMENT: "zero_increment",
+    RHO_CLIPPED: "rho_clipped",
+    PLASTIC: "plastic",
+    TENSION_CUTOFF: "tension_cutoff",
+    SUBSTEP_LIMIT: "substep_limit",
+}
+
+
+def count(flags) -> dict[str, int]:
+    """Number of cells (or steps) in which each rule fired, from an array of flags."""
+    import numpy as np
+
+    f = np.asarray(flags, dtype=np.int64)
+    return {name: int(np.count_nonzero(f & bit)) for bit, name in NAMES.items()}
