@@ -218,7 +218,6 @@ def test_associated_return_is_closest_point_in_energy_norm():
     """For ψ = φ the exact return is the D⁻¹-weighted projection onto the convex admissible set."""
     rng = np.random.default_rng(6)
     dp = np.full((3, 3), LAM) + 2 * MU * np.eye(3)
-    dinv = np.linalg.inv(dp)
     for _ in range(12):
         phi = np.radians(rng.uniform(15, 40))
         c = rng.uniform(5e3, 3e4)
@@ -228,27 +227,31 @@ def test_associated_return_is_closest_point_in_energy_norm():
         s, _, _, _ = update(params, np.zeros(6), hooke_inv(np.r_[tr, 0, 0, 0]))
         got = np.sort(s[:3])[::-1]
 
-        # x = tr + L z with D_p = L Lᵀ makes the energy ½|z|² (well scaled for SLSQP)
+        # x = tr + L z with D_p = L Lᵀ makes the energy ½|z|²: a Euclidean projection of z = 0 onto the
+        # polyhedron {G z <= h}, solved by SLSQP (restarted until it settles)
         low = np.linalg.cholesky(dp)
         scale = np.abs(tr).max()
-        cons = {
-            "type": "ineq",
-            "fun": lambda z, p=phi, c=c, t=sigma_t, tr=tr, s=scale: (
-                -constraints(tr + low @ z, p, c, t)[0] / s
-            ),
-        }
-        z0 = np.linalg.solve(low, 0.5 * (got - tr))
-        ref = minimize(
-            lambda z: 0.5 * z @ z,
-            z0,
-            jac=lambda z: z,
-            constraints=[cons],
-            method="SLSQP",
-            options={"ftol": 1e-13, "maxiter": 500},
-        )
+        f0, _ = constraints(np.zeros(3), phi, c, sigma_t)  # = −offsets
+        nrm = np.array([constraints(e, phi, c, sigma_t)[0] - f0 for e in np.eye(3)]).T  # rows: normals
+        g_mat = nrm @ low
+        h = -(f0 + nrm @ tr)
+        g_n = np.linalg.norm(g_mat, axis=1)
+        a_n, b_n = g_mat / g_n[:, None], h / g_n
+        cons = {"type": "ineq", "fun": lambda z, a=a_n, b=b_n: b - a @ z, "jac": lambda z, a=a_n: -a}
+        z = np.zeros(3)  # start at the trial: independent of the model's answer
+        for _ in range(5):
+            ref = minimize(
+                lambda z: 0.5 * z @ z,
+                z,
+                jac=lambda z: z,
+                constraints=[cons],
+                method="SLSQP",
+                options={"ftol": 1e-14, "maxiter": 500},
+            )
+            z = ref.x
         x_ref = tr + low @ ref.x
         assert constraints(x_ref, phi, c, sigma_t)[0].max() <= 1e-8 * scale
-        np.testing.assert_allclose(got, x_ref, rtol=0, atol=1e-6 * scale)
+        np.testing.assert_allclose(got, x_ref, rtol=0, atol=1e-9 * scale)
         z_got = np.linalg.solve(low, got - tr)
         assert 0.5 * z_got @ z_got <= 0.5 * ref.x @ ref.x * (1 + 1e-9)
 
@@ -275,6 +278,36 @@ def test_isotropic_tension_returns_to_apex(psi_frac):
     s, _, _, flags = update(params, np.zeros(6), np.array([1e-3, 1e-3, 1e-3, 0, 0, 0]))
     assert flags & PLASTIC
     np.testing.assert_allclose(s, [apex, apex, apex, 0, 0, 0], rtol=0, atol=1e-10 * apex)
+
+
+def test_mc_apex_without_effective_cutoff():
+    """σ_t above the apex (raw parameters): the MC planes of the neighbouring sextants must carry the
+    hydrostatic flow back to the apex c·cot φ (requires ψ > 0)."""
+    c, phi = 1e4, np.radians(30)
+    params = np.array([E, NU, phi, np.radians(10), c, 1e30])
+    s, _, _, flags = update(params, np.zeros(6), np.array([1e-3, 1.1e-3, 0.9e-3, 1e-5, 0, 0]))
+    assert flags == PLASTIC
+    apex = c / np.tan(phi)
+    np.testing.assert_allclose(s, [apex, apex, apex, 0, 0, 0], rtol=0, atol=1e-10 * apex)
+
+
+def test_tresca_simple_shear():
+    """φ = ψ = 0 (no cut-off): a large shear trial from an isotropic state returns to |τ| = c."""
+    c = 3e4
+    params = make_params(E, NU, 0.0, 0.0, c)
+    s0 = -1e5 * np.array([1.0, 1, 1, 0, 0, 0])
+    s, _, _, flags = update(params, s0, np.array([0, 0, 0, 5e-3, 0, 0]))
+    assert flags == PLASTIC
+    np.testing.assert_allclose(s, s0 + [0, 0, 0, c, 0, 0], rtol=0, atol=1e-10 * 1e5)
+
+
+def test_make_params_validation():
+    with pytest.raises(ValueError):
+        make_params(E, NU, np.radians(30), np.radians(35), 1e4)  # ψ > φ
+    with pytest.raises(ValueError):
+        make_params(E, NU, np.radians(30), 0.0, 1e4, 2e4)  # σ_t above the apex c·cot φ = 17.3 kPa
+    p = make_params(E, NU, np.radians(30), 0.0, 1e4)
+    assert p[5] == pytest.approx(1e4 / np.tan(np.radians(30)), rel=1e-15)
 
 
 # --------------------------------------------------------------------------- triaxial paths

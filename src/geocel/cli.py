@@ -9,6 +9,7 @@ from typing import Annotated
 import numpy as np
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -110,7 +111,7 @@ def element_test_cmd(
                 progress=lambda i: bar.update(task, completed=i),
             )
     except (ValueError, OSError) as err:
-        console.print(f"[red]error:[/red] {err}")
+        console.print(f"[red]error:[/red] {escape(str(err))}")
         raise typer.Exit(2) from err
     paths = res.write(out)
     console.print(_key_table(f"{kind} — {mat.model}", res.key_figures()))
@@ -118,7 +119,7 @@ def element_test_cmd(
     if fired:
         console.print(f"special rules fired (steps): {fired}")
     for note in res.notes:
-        console.print(f"[yellow]note:[/yellow] {note}")
+        console.print(f"[yellow]note:[/yellow] {escape(note)}")
     for name, p in paths.items():
         console.print(f"{name}: {p}")
 

@@ -85,6 +85,15 @@ def solve_increment(model, prm, stress, state, Ae, As, b, x, tol, nsub, max_iter
             _residual(model, prm, stress, state, Ae, As, b, xp, tol, nsub, work, s_tmp, st_tmp, r2)
             for i in range(6):
                 J[i, j] = (r2[i] - r[i]) / h
+        # singular tangent (e.g. perfect plasticity at failure under stress control): give up cleanly
+        hadamard = 1.0
+        for i in range(6):
+            rn2 = 0.0
+            for j in range(6):
+                rn2 += J[i, j] * J[i, j]
+            hadamard *= np.sqrt(rn2)
+        if hadamard == 0.0 or abs(np.linalg.det(J)) < 1e-13 * hadamard:
+            break
         dx = np.linalg.solve(J, -r)
         # damp steps that would change the increment by more than its own size (reversal kinks)
         dn = 0.0

@@ -63,6 +63,7 @@ STATE_NAMES = ("e", "delta_11", "delta_22", "delta_33", "delta_12", "delta_13", 
 WORK_SIZE = 80  # scratch floats per point (callers allocate once per thread, not per cell)
 MAX_SUBSTEPS = 200_000
 MIN_SUBSTEP = 1.0e-7  # smallest pseudo-time substep of the adaptive scheme
+FLOOR_SUBSTEP = 1.0e-3  # substep below which a predictor may end on the low-stress floor
 
 _THIRD = 1.0 / 3.0
 
@@ -287,7 +288,8 @@ def _adaptive(prm, T, state, deps, tol, w):
         for i in range(6):
             D[i] = deps[i] * h
         vol = np.exp(D[0] + D[1] + D[2])
-        flags |= apply_stress_floor(prm, T)
+        f0 = apply_stress_floor(prm, T)
+        flags |= f0
         M, f = rate(prm, T, state[0], delta, D, k1, q1, w)
         flags |= f
         for i in range(6):
@@ -311,7 +313,12 @@ def _adaptive(prm, T, state, deps, tol, w):
         if igs:
             err = max(err, 0.5 * np.sqrt(err_d) / R)
         count += 1
-        if err <= tol or h <= MIN_SUBSTEP or count >= MAX_SUBSTEPS or f1 != 0:
+        # a predictor pushed through the low-stress floor means the step is too large, unless the
+        # stress already sits at the floor (genuine separation) or the step is already tiny
+        floor_ok = f1 == 0 or f0 != 0 or h <= FLOOR_SUBSTEP
+        if not floor_ok:
+            err = max(err, 100.0 * tol)
+        if (err <= tol and floor_ok) or h <= MIN_SUBSTEP or count >= MAX_SUBSTEPS or (f1 != 0 and floor_ok):
             if err > tol:
                 flags |= fl.SUBSTEP_LIMIT
             flags |= f

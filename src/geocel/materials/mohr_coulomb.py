@@ -23,14 +23,17 @@ Yield functions in principal space, σ1 ≥ σ2 ≥ σ3 (trial ordering), s = si
 
 * Mohr–Coulomb planes f_ij = σ_i (1 + s) − σ_j (1 − s) − K for the six ordered pairs (i, j); in the
   trial sextant the main plane is f_13 and its edge neighbours f_23 (triaxial compression, σ1 = σ2)
-  and f_12 (triaxial extension, σ2 = σ3). The three others are needed at the apex.
+  and f_12 (triaxial extension, σ2 = σ3). The other three only matter at the MC apex, which is
+  reachable only if σ_t exceeds c·cot φ (raw parameter arrays; ``make_params`` forbids it).
 * tension cut-off t_k = σ_k − σ_t (associated).
 
 Plastic potentials g_ij use ψ in place of φ. The return mapping is exact for perfect plasticity: with
 isotropic elasticity the eigenvectors of the trial are kept, and in principal space the corrector
-σ = σ_tr − Σ Δλ_k D_p m_k is linear in Δλ. Candidate active sets (1, 2, then 3 constraints, most
-likely first) are solved in closed form; the first that satisfies Δλ ≥ 0 and makes every constraint
-admissible is the (Kuhn–Tucker) solution.
+σ = σ_tr − Σ Δλ_k D_p m_k is linear in Δλ (D_p: λ + 2μ diagonal, λ off-diagonal). A table of likely
+active sets (plane, edges, tension plane / line / corners, mixed corners, apex) is tried first, then
+every set of size <= 3; each is solved in closed form and the first with Δλ >= 0 that leaves every
+constraint admissible (to ``YIELD_RTOL`` times the trial's stress scale) is the Kuhn–Tucker solution.
+Clearly elastic trials are recognised from closed-form principal values without an eigen-solve.
 """
 
 from __future__ import annotations
@@ -63,10 +66,34 @@ _SCREEN_RTOL = 1.0e-6
 _SINGULAR_RTOL = 1.0e-12
 
 _N_CON = 9
-# Constraint k in priority order: MC planes (i, j) with i, j principal indices (0 = σ1, 2 = σ3);
-# tension planes are marked with j = -1 and act on σ_i.
+# Constraint k: MC planes f_ij with i, j principal indices (0 = σ1, 2 = σ3); tension planes are
+# marked with j = -1 and act on σ_i. 0: f_13 (main), 1: f_23, 2: f_12, 3-5: t_1..t_3, 6-8: the MC
+# planes of the other sextants (only reachable at the apex, i.e. without an effective cut-off).
 _CON_I = (0, 1, 0, 0, 1, 2, 2, 2, 1)
 _CON_J = (2, 2, 1, -1, -1, -1, 0, 1, 0)
+_TENSION_MASK = (1 << 3) | (1 << 4) | (1 << 5)
+# Active sets tried first (−1 = unused slot), by likelihood: main plane, compression / extension
+# edges, tension plane, tension-MC line, tension edge and corner, the points where the tension and
+# MC planes meet (four 3-subsets of {f_13, f_23, t_1, t_2} span the same corner), MC apex. If none
+# is consistent (only conceivable without an effective cut-off), every set of size <= 3 is tried.
+_CANDIDATES = np.array(
+    [
+        [0, -1, -1],
+        [0, 1, -1],
+        [0, 2, -1],
+        [3, -1, -1],
+        [0, 3, -1],
+        [3, 4, -1],
+        [3, 4, 5],
+        [0, 3, 4],
+        [0, 1, 3],
+        [0, 1, 4],
+        [1, 3, 4],
+        [0, 2, 3],
+        [0, 1, 2],
+    ],
+    dtype=np.int64,
+)
 
 
 def make_params(
@@ -95,146 +122,159 @@ def _lame(params):
     return lam, mu
 
 
-@njit(cache=True)
-def _solve_active(a, rhs, m, dl):
-    """Solve the m x m (m <= 3) system a·dl = rhs by Cramer's rule; False when (nearly) singular."""
-    if m == 1:
-        if not (abs(a[0, 0]) > 0.0):
-            return False
-        dl[0] = rhs[0] / a[0, 0]
-        return True
-    if m == 2:
-        det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
-        r0 = np.sqrt(a[0, 0] ** 2 + a[0, 1] ** 2)
-        r1 = np.sqrt(a[1, 0] ** 2 + a[1, 1] ** 2)
-        if not (abs(det) > _SINGULAR_RTOL * r0 * r1):
-            return False
-        dl[0] = (rhs[0] * a[1, 1] - a[0, 1] * rhs[1]) / det
-        dl[1] = (a[0, 0] * rhs[1] - rhs[0] * a[1, 0]) / det
-        return True
-    c00 = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
-    c01 = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
-    c02 = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
-    det = a[0, 0] * c00 + a[0, 1] * c01 + a[0, 2] * c02
-    rn = 1.0
-    for i in range(3):
-        rn *= np.sqrt(a[i, 0] ** 2 + a[i, 1] ** 2 + a[i, 2] ** 2)
-    if not (abs(det) > _SINGULAR_RTOL * rn):
-        return False
-    # x = adj(A) rhs / det
-    c10 = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
-    c11 = a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]
-    c12 = a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]
-    c20 = a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]
-    c21 = a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]
-    c22 = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
-    dl[0] = (c00 * rhs[0] + c10 * rhs[1] + c20 * rhs[2]) / det
-    dl[1] = (c01 * rhs[0] + c11 * rhs[1] + c21 * rhs[2]) / det
-    dl[2] = (c02 * rhs[0] + c12 * rhs[1] + c22 * rhs[2]) / det
-    return True
+@njit(cache=True, inline="always")
+def _adm(w, i, j):
+    """n_i · D_p m_j: change of constraint i per unit multiplier of potential j."""
+    return w[i, 0] * w[j, 3] + w[i, 1] * w[j, 4] + w[i, 2] * w[j, 5]
 
 
 @njit(cache=True)
-def _try_set(idx, m, n, dm, r, ftr, sig_tr, ltol, ftol, a, rhs, dl, out):
-    """Return with active set idx[:m]; out ← stresses. Returns the KT violation (<= 0 when consistent).
+def _try_set(w, i0, i1, i2, m, s1, s2, s3, ltol, ftol):
+    """Return (s1, s2, s3) with active set (i0, i1, i2)[:m]: returns (violation, σ1, σ2, σ3).
 
-    The violation is the largest of (constraint value − ftol) and (−Δλ − ltol)·(λ + 2μ); +inf when the
-    system is singular or produced non-finite multipliers.
+    Solves Σ_q (n_p · D_p m_q) Δλ_q = f_p(σ_tr) by Cramer's rule. The violation is the largest of
+    (f_k − ftol) over all constraints and (−Δλ − ltol)·ftol/ltol (stress units); it is <= 0 for a
+    consistent (Kuhn–Tucker) set and +inf for a (nearly) singular or non-finite one.
     """
-    for p in range(m):
-        i = idx[p]
-        rhs[p] = ftr[i]
-        for q in range(m):
-            j = idx[q]
-            a[p, q] = n[i, 0] * dm[j, 0] + n[i, 1] * dm[j, 1] + n[i, 2] * dm[j, 2]
-    if not _solve_active(a, rhs, m, dl):
-        return np.inf
-    # Δλ < 0 is measured in stress units (×ftol/ltol = λ + 2μ) to be comparable with f
-    viol = -np.inf
-    for d in range(3):
-        out[d] = sig_tr[d]
-    for q in range(m):
-        if not np.isfinite(dl[q]):
-            return np.inf
-        viol = max(viol, (-dl[q] - ltol) * (ftol / ltol))
-        j = idx[q]
-        for d in range(3):
-            out[d] -= dl[q] * dm[j, d]
+    d0 = 0.0
+    d1 = 0.0
+    d2 = 0.0
+    if m == 1:
+        a00 = _adm(w, i0, i0)
+        if not (abs(a00) > 0.0):
+            return np.inf, s1, s2, s3
+        d0 = w[i0, 7] / a00
+    elif m == 2:
+        a00 = _adm(w, i0, i0)
+        a01 = _adm(w, i0, i1)
+        a10 = _adm(w, i1, i0)
+        a11 = _adm(w, i1, i1)
+        det = a00 * a11 - a01 * a10
+        if not (abs(det) > _SINGULAR_RTOL * np.hypot(a00, a01) * np.hypot(a10, a11)):
+            return np.inf, s1, s2, s3
+        d0 = (w[i0, 7] * a11 - a01 * w[i1, 7]) / det
+        d1 = (a00 * w[i1, 7] - w[i0, 7] * a10) / det
+    else:
+        a00 = _adm(w, i0, i0)
+        a01 = _adm(w, i0, i1)
+        a02 = _adm(w, i0, i2)
+        a10 = _adm(w, i1, i0)
+        a11 = _adm(w, i1, i1)
+        a12 = _adm(w, i1, i2)
+        a20 = _adm(w, i2, i0)
+        a21 = _adm(w, i2, i1)
+        a22 = _adm(w, i2, i2)
+        c00 = a11 * a22 - a12 * a21
+        c01 = a12 * a20 - a10 * a22
+        c02 = a10 * a21 - a11 * a20
+        det = a00 * c00 + a01 * c01 + a02 * c02
+        rn = (
+            np.sqrt(a00 * a00 + a01 * a01 + a02 * a02)
+            * np.sqrt(a10 * a10 + a11 * a11 + a12 * a12)
+            * np.sqrt(a20 * a20 + a21 * a21 + a22 * a22)
+        )
+        if not (abs(det) > _SINGULAR_RTOL * rn):
+            return np.inf, s1, s2, s3
+        r0 = w[i0, 7]
+        r1 = w[i1, 7]
+        r2 = w[i2, 7]
+        # Δλ = adj(A)·f / det
+        d0 = (c00 * r0 + (a02 * a21 - a01 * a22) * r1 + (a01 * a12 - a02 * a11) * r2) / det
+        d1 = (c01 * r0 + (a00 * a22 - a02 * a20) * r1 + (a02 * a10 - a00 * a12) * r2) / det
+        d2 = (c02 * r0 + (a01 * a20 - a00 * a21) * r1 + (a00 * a11 - a01 * a10) * r2) / det
+    if not (np.isfinite(d0) and np.isfinite(d1) and np.isfinite(d2)):
+        return np.inf, s1, s2, s3
+    o1 = s1 - d0 * w[i0, 3]
+    o2 = s2 - d0 * w[i0, 4]
+    o3 = s3 - d0 * w[i0, 5]
+    viol = (-d0 - ltol) * (ftol / ltol)
+    if m >= 2:
+        o1 -= d1 * w[i1, 3]
+        o2 -= d1 * w[i1, 4]
+        o3 -= d1 * w[i1, 5]
+        viol = max(viol, (-d1 - ltol) * (ftol / ltol))
+    if m == 3:
+        o1 -= d2 * w[i2, 3]
+        o2 -= d2 * w[i2, 4]
+        o3 -= d2 * w[i2, 5]
+        viol = max(viol, (-d2 - ltol) * (ftol / ltol))
     for k in range(_N_CON):
-        viol = max(viol, n[k, 0] * out[0] + n[k, 1] * out[1] + n[k, 2] * out[2] - r[k] - ftol)
-    return viol
+        viol = max(viol, w[k, 0] * o1 + w[k, 1] * o2 + w[k, 2] * o3 - w[k, 6] - ftol)
+    return viol, o1, o2, o3
 
 
 @njit(cache=True)
-def return_principal(sig_tr, lam, mu, phi, psi, c, sigma_t, scale, out):
-    """Exact perfect-plasticity return of the principal trial stresses sig_tr (σ1 ≥ σ2 ≥ σ3) into out.
+def return_principal(s1, s2, s3, lam, mu, phi, psi, c, sigma_t, scale):
+    """Exact perfect-plasticity return of the principal trial stresses s1 >= s2 >= s3.
 
-    Returns a bit mask of the active constraints (bit k for constraint k, see ``_CON_I``/``_CON_J``).
+    Returns (σ1, σ2, σ3, mask) with bit k of mask set for each active constraint k (``_CON_I``).
     """
     sphi = np.sin(phi)
     spsi = np.sin(psi)
     kc = 2.0 * c * np.cos(phi)
-    n = np.empty((_N_CON, 3))
-    dm = np.empty((_N_CON, 3))
-    r = np.empty(_N_CON)
-    ftr = np.empty(_N_CON)
-    mg = np.empty(3)
+    # per constraint: normal n (0:3), D_p·m of the potential gradient m (3:6), offset (6), trial value (7)
+    w = np.zeros((_N_CON, 8))
     for k in range(_N_CON):
         i = _CON_I[k]
         j = _CON_J[k]
-        for d in range(3):
-            n[k, d] = 0.0
-            mg[d] = 0.0
+        m0 = 0.0
+        m1 = 0.0
+        m2 = 0.0
         if j >= 0:
-            n[k, i] = 1.0 + sphi
-            n[k, j] = -(1.0 - sphi)
-            mg[i] = 1.0 + spsi
-            mg[j] = -(1.0 - spsi)
-            r[k] = kc
+            w[k, i] = 1.0 + sphi
+            w[k, j] = -(1.0 - sphi)
+            w[k, 6] = kc
+            mi = 1.0 + spsi
+            mj = -(1.0 - spsi)
+            m0 = mi if i == 0 else (mj if j == 0 else 0.0)
+            m1 = mi if i == 1 else (mj if j == 1 else 0.0)
+            m2 = mi if i == 2 else (mj if j == 2 else 0.0)
         else:
-            n[k, i] = 1.0
-            mg[i] = 1.0
-            r[k] = sigma_t
+            w[k, i] = 1.0  # associated cut-off
+            w[k, 6] = sigma_t
+            m0 = 1.0 if i == 0 else 0.0
+            m1 = 1.0 if i == 1 else 0.0
+            m2 = 1.0 if i == 2 else 0.0
         # D_p m = λ (m·1) 1 + 2μ m
-        vm = lam * (mg[0] + mg[1] + mg[2])
-        for d in range(3):
-            dm[k, d] = vm + 2.0 * mu * mg[d]
-        ftr[k] = n[k, 0] * sig_tr[0] + n[k, 1] * sig_tr[1] + n[k, 2] * sig_tr[2] - r[k]
+        vm = lam * (m0 + m1 + m2)
+        w[k, 3] = vm + 2.0 * mu * m0
+        w[k, 4] = vm + 2.0 * mu * m1
+        w[k, 5] = vm + 2.0 * mu * m2
+        w[k, 7] = w[k, 0] * s1 + w[k, 1] * s2 + w[k, 2] * s3 - w[k, 6]
 
     ftol = YIELD_RTOL * scale
-    ltol = YIELD_RTOL * scale / (lam + 2.0 * mu)
-    a = np.empty((3, 3))
-    rhs = np.empty(3)
-    dl = np.empty(3)
-    idx = np.empty(3, dtype=np.int64)
-    cand = np.empty(3)
+    ltol = ftol / (lam + 2.0 * mu)
     best = np.inf
-    best_mask = 0
-    for d in range(3):
-        out[d] = sig_tr[d]
-    # candidate sets by size, lexicographic in the priority order of the constraints
+    b1 = s1
+    b2 = s2
+    b3 = s3
+    bmask = 0
+    for q in range(_CANDIDATES.shape[0]):
+        i0 = _CANDIDATES[q, 0]
+        i1 = _CANDIDATES[q, 1]
+        i2 = _CANDIDATES[q, 2]
+        m = 1 if i1 < 0 else (2 if i2 < 0 else 3)
+        viol, o1, o2, o3 = _try_set(w, i0, i1, i2, m, s1, s2, s3, ltol, ftol)
+        if viol < best:
+            best = viol
+            b1, b2, b3 = o1, o2, o3
+            bmask = (1 << i0) | ((1 << i1) if m >= 2 else 0) | ((1 << i2) if m == 3 else 0)
+            if best <= 0.0:
+                return b1, b2, b3, bmask
+    # exhaustive search over all sets of size 1..3
     for m in range(1, 4):
         for i0 in range(_N_CON):
-            idx[0] = i0
             for i1 in range(i0 + 1, _N_CON if m >= 2 else i0 + 2):
-                idx[1] = i1
                 for i2 in range(i1 + 1, _N_CON if m == 3 else i1 + 2):
-                    idx[2] = i2
-                    viol = _try_set(idx, m, n, dm, r, ftr, sig_tr, ltol, ftol, a, rhs, dl, cand)
+                    viol, o1, o2, o3 = _try_set(w, i0, i1, i2, m, s1, s2, s3, ltol, ftol)
                     if viol < best:
                         best = viol
-                        best_mask = 0
-                        for q in range(m):
-                            best_mask |= 1 << idx[q]
-                        for d in range(3):
-                            out[d] = cand[d]
-                    if best <= 0.0:
-                        return best_mask
-    # no exactly consistent set (only conceivable through round-off): keep the least violating one
-    return best_mask
-
-
-_TENSION_MASK = (1 << 3) | (1 << 4) | (1 << 5)
+                        b1, b2, b3 = o1, o2, o3
+                        bmask = (1 << i0) | ((1 << i1) if m >= 2 else 0) | ((1 << i2) if m == 3 else 0)
+                        if best <= 0.0:
+                            return b1, b2, b3, bmask
+    # no exactly consistent set (only conceivable through round-off): the least violating one
+    return b1, b2, b3, bmask
 
 
 @njit(cache=True)
@@ -274,29 +314,23 @@ def mc_update(params, stress, state, deps, dspin, tol, nsub):
     # cheap screen: clearly inside → elastic, no eigenvectors needed
     l1, _, l3 = principal_values(stress)
     scale = max(abs(l1), abs(l3), c, 1e-300)
-    fmax = max((l1 - l3) + (l1 + l3) * sphi - kc, l1 - sigma_t)
-    if fmax <= -_SCREEN_RTOL * scale:
+    if max((l1 - l3) + (l1 + l3) * sphi - kc, l1 - sigma_t) <= -_SCREEN_RTOL * scale:
         return pwave, 0
 
-    vals = np.empty(3)
-    vecs = np.empty((3, 3))
+    buf = np.empty((4, 3))
+    vals = buf[0]
+    vecs = buf[1:]
     eigh3(stress, vals, vecs)
     s1 = vals[2]
     s3 = vals[0]
     scale = max(abs(s1), abs(s3), c, 1e-300)
-    fmax = max((s1 - s3) + (s1 + s3) * sphi - kc, s1 - sigma_t)
-    if fmax <= YIELD_RTOL * scale:
+    if max((s1 - s3) + (s1 + s3) * sphi - kc, s1 - sigma_t) <= YIELD_RTOL * scale:
         return pwave, 0
 
-    sig_tr = np.empty(3)
-    out = np.empty(3)
-    sig_tr[0] = vals[2]
-    sig_tr[1] = vals[1]
-    sig_tr[2] = vals[0]
-    mask = return_principal(sig_tr, lam, mu, phi, params[P_PSI], c, sigma_t, scale, out)
-    vals[2] = out[0]
-    vals[1] = out[1]
-    vals[0] = out[2]
+    o1, o2, o3, mask = return_principal(s1, vals[1], s3, lam, mu, phi, params[P_PSI], c, sigma_t, scale)
+    vals[2] = o1
+    vals[1] = o2
+    vals[0] = o3
     compose(vals, vecs, stress)
     flags = PLASTIC
     if mask & _TENSION_MASK:
