@@ -6,6 +6,8 @@ independent NumPy/SciPy computations, never from the model's own output.
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 import pytest
 from scipy.optimize import minimize, nnls
@@ -171,11 +173,15 @@ def test_return_lands_on_surface_with_admissible_flow():
     rng = np.random.default_rng(5)
     n_plastic = 0
     n_tension = 0
+    kinds = Counter()  # (any MC plane active, number of tension planes active)
     for _ in range(400):
         params = random_params(rng)
         phi, psi, c, sigma_t = params[2:6]
-        s0 = rng.normal(size=6) * 1e5 - 1e5 * np.array([1, 1, 1, 0, 0, 0])
-        deps = rng.normal(size=6) * 10.0 ** rng.uniform(-3, -2)
+        # magnitudes and mean stress spread so that every return type occurs (plane, both edges,
+        # tension plane / edge / corner, mixed tension–MC lines and corners)
+        mag = 10.0 ** rng.uniform(3.5, 5.5)
+        s0 = rng.normal(size=6) * mag + rng.uniform(-1.5, 1.0) * mag * np.array([1, 1, 1, 0, 0, 0])
+        deps = rng.normal(size=6) * 10.0 ** rng.uniform(-4, -2)
         trial = s0 + hooke(deps)
         s, _, _, flags = update(params, s0, deps)
         scale = max(np.abs(principal_desc(trial)).max(), c)
@@ -195,6 +201,7 @@ def test_return_lands_on_surface_with_admissible_flow():
         assert f.max() <= 1e-9 * scale
         assert f.max() >= -1e-9 * scale  # at least one constraint active
         active = np.abs(f) <= 1e-9 * scale
+        kinds[(int(active[:6].any()), int(active[6:].sum()))] += 1
         if flags & TENSION_CUTOFF:
             n_tension += 1
             assert active[6:].any()
@@ -211,7 +218,8 @@ def test_return_lands_on_surface_with_admissible_flow():
         assert np.abs(s2 - s).max() <= 1e-9 * scale
         f2, _ = constraints(principal_desc(s2), phi, c, sigma_t)
         assert f2.max() <= 1e-9 * scale
-    assert n_plastic > 200 and n_tension > 20
+    assert n_plastic > 300 and n_tension > 50
+    assert {(1, 0), (1, 1), (1, 2), (0, 1), (0, 2), (0, 3)} <= set(kinds), kinds
 
 
 def test_associated_return_is_closest_point_in_energy_norm():

@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit
 
 from . import flags as fl
-from .tensor import SQRT2, SQRT6, co_rotate, ddot, norm
+from .tensor import KERNEL_OPTIONS, SQRT2, SQRT6, co_rotate, ddot, norm
 
 # --- parameter array layout -------------------------------------------------------------------------------
 P_PHI_C = 0  # critical friction angle φ_c, rad
@@ -68,7 +68,7 @@ FLOOR_SUBSTEP = 1.0e-3  # substep below which a predictor may end on the low-str
 _THIRD = 1.0 / 3.0
 
 
-@njit(cache=True)
+@njit(**KERNEL_OPTIONS)
 def derived_constants(prm):
     """Fill the derived entries of a parameter array (a and the f_b constant)."""
     s = np.sin(prm[P_PHI_C])
@@ -79,7 +79,7 @@ def derived_constants(prm):
     prm[P_FB_CONST] = (prm[P_EI0] / prm[P_EC0]) ** prm[P_BETA] / bracket
 
 
-@njit(cache=True)
+@njit(**KERNEL_OPTIONS)
 def apply_stress_floor(prm, T):
     """Low-stress rule: reset T to −p_min·I when p < p_min or a principal stress is not compressive."""
     pmin = prm[P_PMIN]
@@ -101,7 +101,7 @@ def apply_stress_floor(prm, T):
     return fl.LOW_STRESS
 
 
-@njit(cache=True)
+@njit(**KERNEL_OPTIONS)
 def clip_intergranular(prm, delta):
     """Scale δ back to ‖δ‖ = R after an explicit step (ρ ≤ 1)."""
     nd = norm(delta)
@@ -114,7 +114,7 @@ def clip_intergranular(prm, delta):
     return 0
 
 
-@njit(cache=True)
+@njit(**KERNEL_OPTIONS)
 def rate(prm, T, e, delta, D, dT, ddelta, w):
     """Stress and intergranular-strain increments dT = T̊(D), ddelta = δ̊(D) for the stretching D.
 
@@ -236,7 +236,7 @@ def rate(prm, T, e, delta, D, dT, ddelta, w):
     return max(mR * lam, lam + normN), flags
 
 
-@njit(cache=True)
+@njit(**KERNEL_OPTIONS)
 def _euler_substeps(prm, T, state, deps, nsub, w):
     """nsub equal forward-Euler substeps (explicit field solver)."""
     flags = 0
@@ -262,7 +262,7 @@ def _euler_substeps(prm, T, state, deps, nsub, w):
     return M, flags
 
 
-@njit(cache=True)
+@njit(**KERNEL_OPTIONS)
 def _adaptive(prm, T, state, deps, tol, w):
     """Heun–Euler pair with local error control over pseudo-time [0, 1] (Sloan-type substepping).
 
@@ -338,7 +338,7 @@ def _adaptive(prm, T, state, deps, tol, w):
     return M, flags
 
 
-@njit(cache=True)
+@njit(**KERNEL_OPTIONS)
 def hypoplastic_update(prm, stress, state, deps, dspin, tol, nsub, w):
     """Update stress (6,) and state (7,) in place for the strain increment deps and spin increment dspin.
 
@@ -358,7 +358,7 @@ def hypoplastic_update(prm, stress, state, deps, dspin, tol, nsub, w):
     return _euler_substeps(prm, stress, state, deps, max(nsub, 1), w)
 
 
-@njit(cache=True)
+@njit(**KERNEL_OPTIONS)
 def stiffness(prm, stress, state, w):
     """P-wave modulus bound at the current state without changing it."""
     D = w[30:36]

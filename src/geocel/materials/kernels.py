@@ -14,14 +14,14 @@ from numba import get_num_threads, njit, prange
 from .elastic import elastic_update
 from .hypoplastic import WORK_SIZE, hypoplastic_update
 from .mohr_coulomb import mc_update
-from .tensor import norm
+from .tensor import KERNEL_OPTIONS, norm
 
 ELASTIC = 0
 MOHR_COULOMB = 1
 HYPOPLASTIC = 2
 
 
-@njit(cache=True)
+@njit(**KERNEL_OPTIONS)
 def update_point(model, prm, stress, state, deps, dspin, tol, nsub, work):
     """Update one point; ``tol > 0`` adaptive substepping, else ``nsub`` explicit substeps."""
     if model == HYPOPLASTIC:
@@ -42,7 +42,7 @@ def update_cells(model, prm, stress, state, deps, dspin, max_substep_strain, mod
     _update_cells(model, prm, stress, state, deps, dspin, max_substep_strain, modulus, flags, nchunk)
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True, **KERNEL_OPTIONS)
 def _update_cells(model, prm, stress, state, deps, dspin, max_substep_strain, modulus, flags, nchunk):
     # scratch space is allocated once per chunk of cells, not per cell
     n = stress.shape[0]

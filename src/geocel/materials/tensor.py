@@ -14,28 +14,32 @@ SQRT2 = np.sqrt(2.0)
 SQRT3 = np.sqrt(3.0)
 SQRT6 = np.sqrt(6.0)
 
+#: compile options of the hot kernels: no Python zero-division checks, and fast-math flags that allow
+#: FMA contraction, reassociation and reciprocals but keep NaN/Inf semantics (instability detection needs them)
+KERNEL_OPTIONS = dict(cache=True, error_model="numpy", fastmath={"contract", "arcp", "afn", "reassoc", "nsz"})
+
 #: position of (i, j) in the 6-vector
 VOIGT_INDEX = ((0, 3, 4), (3, 1, 5), (4, 5, 2))
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always", **KERNEL_OPTIONS)
 def ddot(a, b):
     """Double contraction a:b of two symmetric tensors (shear counted twice)."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + 2.0 * (a[3] * b[3] + a[4] * b[4] + a[5] * b[5])
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always", **KERNEL_OPTIONS)
 def norm(a):
     """Frobenius norm ‖a‖ = √(a:a)."""
     return np.sqrt(ddot(a, a))
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always", **KERNEL_OPTIONS)
 def trace(a):
     return a[0] + a[1] + a[2]
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always", **KERNEL_OPTIONS)
 def det(a):
     """Determinant of the symmetric tensor a."""
     return (
@@ -45,7 +49,7 @@ def det(a):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always", **KERNEL_OPTIONS)
 def second_invariant(a):
     """Sum of the principal 2x2 minors (I2 of the characteristic polynomial)."""
     return a[0] * a[1] + a[1] * a[2] + a[0] * a[2] - a[3] * a[3] - a[4] * a[4] - a[5] * a[5]
@@ -141,7 +145,7 @@ def rotate(a, q):
     a[5] = r10 * q[2, 0] + r11 * q[2, 1] + r12 * q[2, 2]
 
 
-@njit(cache=True)
+@njit(**KERNEL_OPTIONS)
 def co_rotate(a, dw):
     """Jaumann co-rotation of the symmetric tensor a with the spin increment dw (in place).
 
