@@ -39,7 +39,9 @@ def measure(n: int, threads: int, repeats: int) -> float:
     modulus = np.empty(n)
     flags = np.empty(n, dtype=np.int64)
     numba.set_num_threads(threads)
-    update_cells(2, prm, stress[:1000], state[:1000], deps[:1000], dspin[:1000], 0.0, modulus, flags)  # compile
+    update_cells(
+        2, prm, stress[:1000], state[:1000], deps[:1000], dspin[:1000], 0.0, modulus, flags
+    )  # compile
     best = np.inf
     for r in range(repeats):
         # alternate the sign so the cells do not drift far from their state

@@ -45,7 +45,15 @@ def test_mohr_coulomb_checks_dilatancy_and_tension_cutoff():
 def test_presets_match_the_paper_table():
     fe = Hypoplastic.fraction_e()
     assert (fe.phi_c, fe.hs, fe.n, fe.e_d0, fe.e_c0, fe.e_i0) == (30.0, 1354e6, 0.34, 0.49, 0.76, 0.86)
-    assert (fe.alpha, fe.beta, fe.m_T, fe.m_R, fe.R, fe.beta_r, fe.chi) == (0.18, 1.27, 3.07, 5.16, 1e-4, 0.58, 5.74)
+    assert (fe.alpha, fe.beta, fe.m_T, fe.m_R, fe.R, fe.beta_r, fe.chi) == (
+        0.18,
+        1.27,
+        3.07,
+        5.16,
+        1e-4,
+        0.58,
+        5.74,
+    )
     # the f_b bracket of the reference page: 6.762 for Fraction E
     assert fe.fb_bracket() == pytest.approx(6.762, abs=5e-4)
     assert fe.a() == pytest.approx(3.061862, abs=1e-6)
@@ -53,7 +61,9 @@ def test_presets_match_the_paper_table():
 
 def test_material_from_toml_with_preset_and_override(tmp_path):
     f = tmp_path / "sand.toml"
-    f.write_text('[soil]\nmodel = "hypoplastic"\npreset = "karlsruhe"\nphi_c = 31.0\n[[soil.layers]]\ntop = 0.0\n')
+    f.write_text(
+        '[soil]\nmodel = "hypoplastic"\npreset = "karlsruhe"\nphi_c = 31.0\n[[soil.layers]]\ntop = 0.0\n'
+    )
     mat = load_material(str(f))
     assert isinstance(mat, Hypoplastic)
     assert mat.phi_c == 31.0 and mat.hs == 5800e6
@@ -66,12 +76,27 @@ def test_material_from_toml_with_preset_and_override(tmp_path):
 def test_cli_element_test_writes_csv_plot_and_figures(tmp_path):
     out = tmp_path / "tx"
     res = runner.invoke(
-        app, ["element-test", "triaxial", "--e0", "0.70", "--strain", "0.05", "--steps", "100", "--out", str(out)]
+        app,
+        ["element-test", "triaxial", "--e0", "0.70", "--strain", "0.05", "--steps", "100", "--out", str(out)],
     )
     assert res.exit_code == 0, res.output
     df = pd.read_csv(out / "element_test.csv")
-    for col in ["eps_xx", "eps_yy", "eps_zz", "eps_xy", "eps_xz", "eps_yz",
-                "sig_xx", "sig_yy", "sig_zz", "sig_xy", "sig_xz", "sig_yz", "e", "rho"]:
+    for col in [
+        "eps_xx",
+        "eps_yy",
+        "eps_zz",
+        "eps_xy",
+        "eps_xz",
+        "eps_yz",
+        "sig_xx",
+        "sig_yy",
+        "sig_zz",
+        "sig_xy",
+        "sig_xz",
+        "sig_yz",
+        "e",
+        "rho",
+    ]:
         assert col in df.columns
     assert len(df) == 101
     assert (out / "element_test.png").stat().st_size > 10_000
@@ -91,10 +116,30 @@ def test_cli_rejects_bad_input_with_a_message(tmp_path):
 
 def test_cli_path_kind(tmp_path):
     csv = tmp_path / "path.csv"
-    pd.DataFrame({"dexx": [0.0] * 10, "deyy": [0.0] * 10, "dezz": [-1e-4] * 10, "dexy": [0.0] * 10,
-                  "dexz": [1e-5] * 10, "deyz": [0.0] * 10}).to_csv(csv, index=False)
-    res = runner.invoke(app, ["element-test", "path", "--path", str(csv), "--stress=-50e3,-50e3,-100e3,0,0,0",
-                              "--e0", "0.65", "--out", str(tmp_path / "o")])
+    pd.DataFrame(
+        {
+            "dexx": [0.0] * 10,
+            "deyy": [0.0] * 10,
+            "dezz": [-1e-4] * 10,
+            "dexy": [0.0] * 10,
+            "dexz": [1e-5] * 10,
+            "deyz": [0.0] * 10,
+        }
+    ).to_csv(csv, index=False)
+    res = runner.invoke(
+        app,
+        [
+            "element-test",
+            "path",
+            "--path",
+            str(csv),
+            "--stress=-50e3,-50e3,-100e3,0,0,0",
+            "--e0",
+            "0.65",
+            "--out",
+            str(tmp_path / "o"),
+        ],
+    )
     assert res.exit_code == 0, res.output
     df = pd.read_csv(tmp_path / "o" / "element_test.csv")
     assert len(df) == 11

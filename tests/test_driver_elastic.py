@@ -121,7 +121,9 @@ def test_cyclic_stress_control_reaches_the_amplitude(elastic):
 
 def test_cyclic_strain_control_undrained(elastic):
     A = 1e-3
-    r = element_test("cyclic-triaxial", elastic, e0=0.6, p0=100e3, cycles=2, amplitude=A, drained=False, steps=40)
+    r = element_test(
+        "cyclic-triaxial", elastic, e0=0.6, p0=100e3, cycles=2, amplitude=A, drained=False, steps=40
+    )
     assert r.axial_strain.max() == pytest.approx(A, rel=1e-10)
     assert r.axial_strain.min() == pytest.approx(-A, rel=1e-10)
     np.testing.assert_allclose(r.strain[:, :3].sum(axis=1), 0.0, atol=1e-15)
@@ -147,7 +149,9 @@ def test_path_csv_missing_columns_is_a_clear_error(elastic):
 def test_stress_target_beyond_failure_ends_with_a_note():
     mc = MohrCoulomb(youngs_modulus=E, poisson_ratio=NU, friction_angle=30.0)
     # drained q/p at failure is 1.2, i.e. q_max = 3·1.2/(3 − 1.2)·σ3 = 200 kPa at σ3 = 100 kPa
-    r = element_test("cyclic-triaxial", mc, e0=0.6, p0=100e3, cycles=1, amplitude=300e3, control="stress", steps=40)
+    r = element_test(
+        "cyclic-triaxial", mc, e0=0.6, p0=100e3, cycles=1, amplitude=300e3, control="stress", steps=40
+    )
     assert r.notes and "did not converge" in r.notes[0]
     assert r.q.max() <= 200e3 * (1 + 1e-6)
 
@@ -194,7 +198,9 @@ def test_large_increment_is_substepped_in_the_field_kernel():
     errs = []
     for h in (2e-4, 1e-4, 5e-5):
         s, st = s0[None].copy(), st0[None].copy()
-        update_cells(HYPOPLASTIC, prm, s, st, deps[None], np.zeros((1, 3)), h, np.empty(1), np.empty(1, np.int64))
+        update_cells(
+            HYPOPLASTIC, prm, s, st, deps[None], np.zeros((1, 3)), h, np.empty(1), np.empty(1, np.int64)
+        )
         errs.append(np.linalg.norm(s[0] - ref_s) / np.linalg.norm(ref_s))
     assert errs[0] < 0.05
     assert errs[1] < errs[0] and errs[2] < errs[1]

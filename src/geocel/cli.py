@@ -51,7 +51,9 @@ def element_test_cmd(
             help="isotropic | oedometer | triaxial | undrained-triaxial | simple-shear | cyclic-triaxial | path"
         ),
     ],
-    material: Annotated[str, typer.Option(help="preset name (fraction-e, karlsruhe, …) or TOML file")] = "fraction-e",
+    material: Annotated[
+        str, typer.Option(help="preset name (fraction-e, karlsruhe, …) or TOML file")
+    ] = "fraction-e",
     e0: Annotated[float, typer.Option(help="initial void ratio")] = 0.65,
     p0: Annotated[float, typer.Option(help="initial mean pressure, Pa (compression positive)")] = 100.0e3,
     k0: Annotated[float, typer.Option(help="initial σ_h/σ_v")] = 1.0,
@@ -64,15 +66,24 @@ def element_test_cmd(
     steps: Annotated[int, typer.Option(help="number of increments (per loading branch)")] = 1000,
     cycles: Annotated[int, typer.Option(help="cyclic-triaxial: number of cycles")] = 3,
     amplitude: Annotated[
-        float | None, typer.Option(help="cyclic: strain amplitude (−) or, with --control stress, q amplitude (Pa)")
+        float | None,
+        typer.Option(help="cyclic: strain amplitude (−) or, with --control stress, q amplitude (Pa)"),
     ] = None,
     control: Annotated[str, typer.Option(help="cyclic-triaxial: strain | stress")] = "strain",
     undrained: Annotated[bool, typer.Option(help="cyclic-triaxial: constant volume")] = False,
     extension: Annotated[bool, typer.Option(help="triaxial kinds: extension instead of compression")] = False,
-    intergranular: Annotated[str, typer.Option(help="initial intergranular strain: zero | vertical")] = "zero",
-    path: Annotated[Path | None, typer.Option(help="path: CSV with columns dexx,deyy,dezz,dexy,dexz,deyz")] = None,
-    stress: Annotated[str | None, typer.Option(help="path: initial stress 'sxx,syy,szz,sxy,sxz,syz' in Pa")] = None,
-    delta: Annotated[str | None, typer.Option(help="path: initial intergranular strain, 6 comma values")] = None,
+    intergranular: Annotated[
+        str, typer.Option(help="initial intergranular strain: zero | vertical")
+    ] = "zero",
+    path: Annotated[
+        Path | None, typer.Option(help="path: CSV with columns dexx,deyy,dezz,dexy,dexz,deyz")
+    ] = None,
+    stress: Annotated[
+        str | None, typer.Option(help="path: initial stress 'sxx,syy,szz,sxy,sxz,syz' in Pa")
+    ] = None,
+    delta: Annotated[
+        str | None, typer.Option(help="path: initial intergranular strain, 6 comma values")
+    ] = None,
     tol: Annotated[float, typer.Option(help="local relative error tolerance of the substepping")] = 1.0e-6,
     out: Annotated[Path, typer.Option(help="output directory")] = Path("element-test"),
 ) -> None:
@@ -101,13 +112,31 @@ def element_test_cmd(
         elif kind == "cyclic-triaxial":
             n_total = max(1, steps // 4) * (4 * cycles)
         with Progress(
-            TextColumn(f"[bold]{kind}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), console=console
+            TextColumn(f"[bold]{kind}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            console=console,
         ) as bar:
             task = bar.add_task(kind, total=n_total)
             res = element_test(
-                kind, mat, e0=e0, p0=p0, k0=k0, strain=strain, steps=steps, cycles=cycles, amplitude=amplitude,
-                control=control, drained=not undrained, extension=extension, intergranular=intergranular,
-                path=table, stress0=stress0, state0=state0, tol=tol,
+                kind,
+                mat,
+                e0=e0,
+                p0=p0,
+                k0=k0,
+                strain=strain,
+                steps=steps,
+                cycles=cycles,
+                amplitude=amplitude,
+                control=control,
+                drained=not undrained,
+                extension=extension,
+                intergranular=intergranular,
+                path=table,
+                stress0=stress0,
+                state0=state0,
+                tol=tol,
                 progress=lambda i: bar.update(task, completed=i),
             )
     except (ValueError, OSError) as err:

@@ -192,17 +192,45 @@ Material = Annotated[Elastic | MohrCoulomb | Hypoplastic, Field(discriminator="m
 #: named parameter sets (the ``preset`` key of ``[soil]``)
 PRESETS: dict[str, dict[str, Any]] = {
     "fraction-e": dict(
-        model="hypoplastic", phi_c=30.0, hs=1354.0e6, n=0.34, e_d0=0.49, e_c0=0.76, e_i0=0.86, alpha=0.18,
-        beta=1.27, m_T=3.07, m_R=5.16, R=1.0e-4, beta_r=0.58, chi=5.74,
+        model="hypoplastic",
+        phi_c=30.0,
+        hs=1354.0e6,
+        n=0.34,
+        e_d0=0.49,
+        e_c0=0.76,
+        e_i0=0.86,
+        alpha=0.18,
+        beta=1.27,
+        m_T=3.07,
+        m_R=5.16,
+        R=1.0e-4,
+        beta_r=0.58,
+        chi=5.74,
     ),
     # base set of the reference page; intergranular strain: typical values of Niemunis & Herle (1997)
     "karlsruhe": dict(
-        model="hypoplastic", phi_c=30.0, hs=5800.0e6, n=0.28, e_d0=0.53, e_c0=0.84, e_i0=1.00, alpha=0.13,
-        beta=1.0, m_T=2.0, m_R=5.0, R=1.0e-4, beta_r=0.5, chi=6.0,
+        model="hypoplastic",
+        phi_c=30.0,
+        hs=5800.0e6,
+        n=0.28,
+        e_d0=0.53,
+        e_c0=0.84,
+        e_i0=1.00,
+        alpha=0.13,
+        beta=1.0,
+        m_T=2.0,
+        m_R=5.0,
+        R=1.0e-4,
+        beta_r=0.5,
+        chi=6.0,
     ),
     "mohr-coulomb-sand": dict(
-        model="mohr-coulomb", youngs_modulus=50.0e6, poisson_ratio=0.3, friction_angle=30.0,
-        dilatancy_angle=0.0, cohesion=0.0,
+        model="mohr-coulomb",
+        youngs_modulus=50.0e6,
+        poisson_ratio=0.3,
+        friction_angle=30.0,
+        dilatancy_angle=0.0,
+        cohesion=0.0,
     ),
     "elastic": dict(model="elastic", youngs_modulus=50.0e6, poisson_ratio=0.3),
 }
@@ -235,7 +263,9 @@ def load_material(spec: str) -> Elastic | MohrCoulomb | Hypoplastic:
         return material_from_dict({"preset": spec})
     path = Path(spec)
     if not path.is_file():
-        raise ValueError(f"material {spec!r} is neither a preset ({', '.join(sorted(PRESETS))}) nor a TOML file")
+        raise ValueError(
+            f"material {spec!r} is neither a preset ({', '.join(sorted(PRESETS))}) nor a TOML file"
+        )
     with path.open("rb") as f:
         data = tomllib.load(f)
     return material_from_dict(data.get("soil", data))

@@ -138,7 +138,9 @@ class ElementTestResult:
             dev = self.volumetric_strain[j] - self.volumetric_strain[j - 1]
             dea = self.axial_strain[j] - self.axial_strain[j - 1]
             if dea != 0.0:
-                out["dilatancy_angle_peak_deg"] = float(np.degrees(np.arcsin(np.clip(-dev / (2 * dea - dev), -1, 1))))
+                out["dilatancy_angle_peak_deg"] = float(
+                    np.degrees(np.arcsin(np.clip(-dev / (2 * dea - dev), -1, 1)))
+                )
         if self.kind == "simple-shear" and len(phi) > 2:
             j = max(1, min(i_peak, len(phi) - 1))
             dg = self.shear_strain[j] - self.shear_strain[j - 1]
@@ -157,7 +159,11 @@ class ElementTestResult:
         from .plots import plot_element_test
 
         out.mkdir(parents=True, exist_ok=True)
-        paths = {"csv": out / "element_test.csv", "json": out / "key_figures.json", "png": out / "element_test.png"}
+        paths = {
+            "csv": out / "element_test.csv",
+            "json": out / "key_figures.json",
+            "png": out / "element_test.png",
+        }
         self.dataframe().to_csv(paths["csv"], index=False, float_format="%.10g")
         summary = {
             "kind": self.kind,
@@ -261,7 +267,9 @@ def run_segments(
     R = material.R if is_hypo else 1.0
 
     def rho_of(st: np.ndarray) -> float:
-        return float(np.sqrt(st[1] ** 2 + st[2] ** 2 + st[3] ** 2 + 2 * (st[4] ** 2 + st[5] ** 2 + st[6] ** 2)) / R)
+        return float(
+            np.sqrt(st[1] ** 2 + st[2] ** 2 + st[3] ** 2 + 2 * (st[4] ** 2 + st[5] ** 2 + st[6] ** 2)) / R
+        )
 
     rec_eps = [eps.copy()]
     rec_sig = [stress.copy()]
@@ -282,7 +290,9 @@ def run_segments(
         x = elastic_guess(seg.step.Ae, As * sig_ref, seg.step.b, modulus)
         for _ in range(seg.n):
             x_try = x.copy()
-            ok, _, m, f = solve_increment(model, prm, stress, state, seg.step.Ae, As, b, x_try, tol, 1, 60, 1e-9)
+            ok, _, m, f = solve_increment(
+                model, prm, stress, state, seg.step.Ae, As, b, x_try, tol, 1, 60, 1e-9
+            )
             if not ok:
                 # restart from the elastic guess before giving up
                 x_try = elastic_guess(seg.step.Ae, As * sig_ref, seg.step.b, modulus)
@@ -312,7 +322,9 @@ def run_segments(
 
 
 def _finish(kind, material, rec_eps, rec_sig, rec_e, rec_rho, flag_acc, notes) -> ElementTestResult:
-    counts = fl.count(np.array(flag_acc, dtype=np.int64)) if flag_acc else fl.count(np.zeros(0, dtype=np.int64))
+    counts = (
+        fl.count(np.array(flag_acc, dtype=np.int64)) if flag_acc else fl.count(np.zeros(0, dtype=np.int64))
+    )
     return ElementTestResult(
         kind=kind,
         material=material,
@@ -439,7 +451,9 @@ def _cyclic_segments(
         d = A / n_quarter
         segs.append(Segment(triaxial_stress_step(+d, drained), n_quarter, label="first quarter"))
         for c in range(cycles):
-            segs.append(Segment(triaxial_stress_step(-d, drained), 2 * n_quarter, label=f"cycle {c + 1} down"))
+            segs.append(
+                Segment(triaxial_stress_step(-d, drained), 2 * n_quarter, label=f"cycle {c + 1} down")
+            )
             n_up = 2 * n_quarter if c < cycles - 1 else n_quarter
             segs.append(Segment(triaxial_stress_step(+d, drained), n_up, label=f"cycle {c + 1} up"))
     return segs

@@ -40,8 +40,13 @@ def elastic_update(prm, stress, state, deps, dspin, tol, nsub):
     co_rotate(stress, dspin)
     lam, mu = lame(prm)
     tr = deps[0] + deps[1] + deps[2]
-    if tr == 0.0 and deps[0] == 0.0 and deps[1] == 0.0 and deps[3] == 0.0 and deps[4] == 0.0 and (
-        deps[5] == 0.0
+    if (
+        tr == 0.0
+        and deps[0] == 0.0
+        and deps[1] == 0.0
+        and deps[3] == 0.0
+        and deps[4] == 0.0
+        and (deps[5] == 0.0)
     ):
         return lam + 2.0 * mu, fl.ZERO_INCREMENT
     for i in range(3):

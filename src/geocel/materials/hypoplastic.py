@@ -348,8 +348,13 @@ def hypoplastic_update(prm, stress, state, deps, dspin, tol, nsub, w):
     co_rotate(stress, dspin)
     if prm[P_IGS] != 0.0:
         co_rotate(state[1:7], dspin)
-    if deps[0] == 0.0 and deps[1] == 0.0 and deps[2] == 0.0 and deps[3] == 0.0 and deps[4] == 0.0 and (
-        deps[5] == 0.0
+    if (
+        deps[0] == 0.0
+        and deps[1] == 0.0
+        and deps[2] == 0.0
+        and deps[3] == 0.0
+        and deps[4] == 0.0
+        and (deps[5] == 0.0)
     ):
         flags = fl.ZERO_INCREMENT | apply_stress_floor(prm, stress)
         return stiffness(prm, stress, state, w), flags
