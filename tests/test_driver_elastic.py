@@ -177,8 +177,9 @@ def test_update_cells_equals_update_point_and_counts_rules():
     M = np.empty(n)
     f = np.empty(n, dtype=np.int64)
     update_cells(HYPOPLASTIC, prm, stress, state, deps, dspin, 0.0, M, f)
-    np.testing.assert_array_equal(stress, s_ref)
-    np.testing.assert_array_equal(state, st_ref)
+    # same arithmetic on two code paths; FMA contraction may differ in the last bits
+    np.testing.assert_allclose(stress, s_ref, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(state, st_ref, rtol=1e-12, atol=1e-20)
     np.testing.assert_array_equal(f, f_ref)
     assert np.all(f[:3] & fl.LOW_STRESS)
     assert not np.any(f[3:] & fl.LOW_STRESS)

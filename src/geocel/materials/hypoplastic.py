@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit
 
 from . import flags as fl
-from .tensor import KERNEL_OPTIONS, SQRT2, SQRT6, co_rotate, ddot, norm
+from .tensor import KERNEL_OPTIONS, SQRT2, SQRT6, co_rotate, co_rotate_tuple, norm
 
 # --- parameter array layout -------------------------------------------------------------------------------
 P_PHI_C = 0  # critical friction angle φ_c, rad
@@ -79,26 +79,30 @@ def derived_constants(prm):
     prm[P_FB_CONST] = (prm[P_EI0] / prm[P_EC0]) ** prm[P_BETA] / bracket
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def floor_tuple(pmin, T):
+    """Low-stress rule on a 6-tuple: (T or −p_min·I, flag)."""
+    t0, t1, t2, t3, t4, t5 = T
+    p = -(t0 + t1 + t2) * _THIRD
+    # all principal stresses < 0 ⇔ the invariants of −T are all positive (no eigen-solve)
+    b0 = -t0
+    b1 = -t1
+    b2 = -t2
+    i2 = b0 * b1 + b1 * b2 + b0 * b2 - t3 * t3 - t4 * t4 - t5 * t5
+    i3 = b0 * (b1 * b2 - t5 * t5) - t3 * (t3 * b2 - t5 * t4) + t4 * (t3 * t5 - b1 * t4)
+    if p >= pmin and i2 > 0.0 and i3 > 0.0:
+        return T, 0
+    return (-pmin, -pmin, -pmin, 0.0, 0.0, 0.0), fl.LOW_STRESS
+
+
 @njit(**KERNEL_OPTIONS)
 def apply_stress_floor(prm, T):
     """Low-stress rule: reset T to −p_min·I when p < p_min or a principal stress is not compressive."""
-    pmin = prm[P_PMIN]
-    p = -(T[0] + T[1] + T[2]) * _THIRD
-    # all principal stresses < 0 ⇔ the invariants of −T are all positive (no eigen-solve)
-    b0 = -T[0]
-    b1 = -T[1]
-    b2 = -T[2]
-    i2 = b0 * b1 + b1 * b2 + b0 * b2 - T[3] * T[3] - T[4] * T[4] - T[5] * T[5]
-    i3 = b0 * (b1 * b2 - T[5] * T[5]) - T[3] * (T[3] * b2 - T[5] * T[4]) + T[4] * (T[3] * T[5] - b1 * T[4])
-    if p >= pmin and i2 > 0.0 and i3 > 0.0:
-        return 0
-    T[0] = -pmin
-    T[1] = -pmin
-    T[2] = -pmin
-    T[3] = 0.0
-    T[4] = 0.0
-    T[5] = 0.0
-    return fl.LOW_STRESS
+    r, f = floor_tuple(prm[P_PMIN], (T[0], T[1], T[2], T[3], T[4], T[5]))
+    if f != 0:
+        for i in range(6):
+            T[i] = r[i]
+    return f
 
 
 @njit(**KERNEL_OPTIONS)
@@ -114,44 +118,44 @@ def clip_intergranular(prm, delta):
     return 0
 
 
-@njit(**KERNEL_OPTIONS)
-def rate(prm, T, e, delta, D, dT, ddelta, w):
-    """Stress and intergranular-strain increments dT = T̊(D), ddelta = δ̊(D) for the stretching D.
+@njit(inline="always", **KERNEL_OPTIONS)
+def _dot6(a0, a1, a2, a3, a4, a5, b0, b1, b2, b3, b4, b5):
+    return a0 * b0 + a1 * b1 + a2 * b2 + 2.0 * (a3 * b3 + a4 * b4 + a5 * b5)
 
-    T must be admissible (see :func:`apply_stress_floor`). ``w`` is scratch space (≥ 30 floats).
-    Returns (M, flags): M is an upper bound of the P-wave (acoustic) modulus of the current tangent,
-    m_R·λ_max(L) or λ_max(L) + ‖N‖ whichever is larger, with λ_max(L) ≤ c₁(F² + a² g²) and g ≥ the
-    largest principal value of T̂ (Gershgorin). It is exact for an isotropic state.
+
+@njit(**KERNEL_OPTIONS)
+def rate_scalar(prm, T, e, dl, D):
+    """Core of :func:`rate` on 6-tuples (kept in registers: no aliasing through scratch arrays).
+
+    Returns (dT, ddelta, M, flags) with dT, ddelta 6-tuples.
     """
     flags = 0
-    That = w[0:6]
-    Nv = w[6:12]
-    LD = w[12:18]
-    dhat = w[18:24]
-    Ld = w[24:30]
-
-    trT = T[0] + T[1] + T[2]
+    t0, t1, t2, t3, t4, t5 = T
+    d0, d1, d2, d3, d4, d5 = D
+    trT = t0 + t1 + t2
     p = -trT * _THIRD
-    for i in range(6):
-        That[i] = T[i] / trT
-    TT = ddot(That, That)
+    inv = 1.0 / trT
+    h0 = t0 * inv
+    h1 = t1 * inv
+    h2 = t2 * inv
+    h3 = t3 * inv
+    h4 = t4 * inv
+    h5 = t5 * inv
+    TT = _dot6(h0, h1, h2, h3, h4, h5, h0, h1, h2, h3, h4, h5)
     # deviator T̂* (only the diagonal differs from T̂)
-    s0 = That[0] - _THIRD
-    s1 = That[1] - _THIRD
-    s2 = That[2] - _THIRD
-    s3 = That[3]
-    s4 = That[4]
-    s5 = That[5]
-    ns2 = s0 * s0 + s1 * s1 + s2 * s2 + 2.0 * (s3 * s3 + s4 * s4 + s5 * s5)
+    s0 = h0 - _THIRD
+    s1 = h1 - _THIRD
+    s2 = h2 - _THIRD
+    ns2 = _dot6(s0, s1, s2, h3, h4, h5, s0, s1, s2, h3, h4, h5)
     tanpsi = np.sqrt(3.0 * ns2)
     cos3t = -1.0
     if ns2 > 1.0e-24:
         # tr(T̂*³) = 3 det(T̂*) for a traceless tensor (Cayley–Hamilton)
-        dets = s0 * (s1 * s2 - s5 * s5) - s3 * (s3 * s2 - s5 * s4) + s4 * (s3 * s5 - s1 * s4)
+        dets = s0 * (s1 * s2 - h5 * h5) - h3 * (h3 * s2 - h5 * h4) + h4 * (h3 * h5 - s1 * h4)
         cos3t = -SQRT6 * 3.0 * dets / (ns2 * np.sqrt(ns2))
         cos3t = min(1.0, max(-1.0, cos3t))
-    t2 = tanpsi * tanpsi
-    F = np.sqrt(t2 / 8.0 + (2.0 - t2) / (2.0 + SQRT2 * tanpsi * cos3t)) - tanpsi / (2.0 * SQRT2)
+    t2p = tanpsi * tanpsi
+    F = np.sqrt(t2p / 8.0 + (2.0 - t2p) / (2.0 + SQRT2 * tanpsi * cos3t)) - tanpsi / (2.0 * SQRT2)
 
     a = prm[P_A]
     hs = prm[P_HS]
@@ -175,90 +179,175 @@ def rate(prm, T, e, delta, D, dT, ddelta, w):
     if ee > ed:
         fd = np.exp(prm[P_ALPHA] * np.log((ee - ed) / (ec - ed)))
     c1 = fb * fe / TT
-    F2 = F * F
-    a2 = a * a
+    cF = c1 * F * F
+    ca = c1 * a * a
 
-    TD = ddot(That, D)
-    for i in range(6):
-        LD[i] = c1 * (F2 * D[i] + a2 * That[i] * TD)
+    TD = _dot6(h0, h1, h2, h3, h4, h5, d0, d1, d2, d3, d4, d5)
+    l0 = cF * d0 + ca * h0 * TD
+    l1 = cF * d1 + ca * h1 * TD
+    l2 = cF * d2 + ca * h2 * TD
+    l3 = cF * d3 + ca * h3 * TD
+    l4 = cF * d4 + ca * h4 * TD
+    l5 = cF * d5 + ca * h5 * TD
     cN = c1 * a * F * fd
-    for i in range(3):
-        Nv[i] = cN * (2.0 * That[i] - _THIRD)  # T̂ + T̂*
-    for i in range(3, 6):
-        Nv[i] = cN * 2.0 * That[i]
-    normN = norm(Nv)
+    n0 = cN * (2.0 * h0 - _THIRD)  # N = cN (T̂ + T̂*)
+    n1 = cN * (2.0 * h1 - _THIRD)
+    n2 = cN * (2.0 * h2 - _THIRD)
+    n3 = cN * 2.0 * h3
+    n4 = cN * 2.0 * h4
+    n5 = cN * 2.0 * h5
+    normN = np.sqrt(_dot6(n0, n1, n2, n3, n4, n5, n0, n1, n2, n3, n4, n5))
 
-    # stiffness bound for the time step
-    g0 = That[0] + abs(That[3]) + abs(That[4])
-    g1 = That[1] + abs(That[3]) + abs(That[5])
-    g2 = That[2] + abs(That[4]) + abs(That[5])
+    # stiffness bound for the time step (Gershgorin bound g of the largest principal value of T̂)
+    g0 = h0 + abs(h3) + abs(h4)
+    g1 = h1 + abs(h3) + abs(h5)
+    g2 = h2 + abs(h4) + abs(h5)
     g = min(1.0, max(g0, max(g1, g2)))
-    lam = c1 * (F2 + a2 * g * g)
+    lam = cF + ca * g * g
 
     if prm[P_IGS] == 0.0:
-        nD = norm(D)
-        for i in range(6):
-            dT[i] = LD[i] + Nv[i] * nD
-            ddelta[i] = 0.0
-        return lam + normN, flags
+        nD = np.sqrt(_dot6(d0, d1, d2, d3, d4, d5, d0, d1, d2, d3, d4, d5))
+        dT = (l0 + n0 * nD, l1 + n1 * nD, l2 + n2 * nD, l3 + n3 * nD, l4 + n4 * nD, l5 + n5 * nD)
+        return dT, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0), lam + normN, flags
 
     mT = prm[P_MT]
     mR = prm[P_MR]
-    nd = norm(delta)
+    q0, q1, q2, q3, q4, q5 = dl
+    nd = np.sqrt(_dot6(q0, q1, q2, q3, q4, q5, q0, q1, q2, q3, q4, q5))
     rho = min(nd / prm[P_R], 1.0)
+    u0 = u1 = u2 = u3 = u4 = u5 = 0.0
     dd = 0.0
-    if nd > 0.0:
-        for i in range(6):
-            dhat[i] = delta[i] / nd
-        dd = ddot(dhat, D)
-    else:
-        for i in range(6):
-            dhat[i] = 0.0
     rc = 0.0
-    if rho > 0.0:
-        rc = np.exp(prm[P_CHI] * np.log(rho))
+    lrho = 0.0
+    if nd > 0.0:
+        ind = 1.0 / nd
+        u0 = q0 * ind
+        u1 = q1 * ind
+        u2 = q2 * ind
+        u3 = q3 * ind
+        u4 = q4 * ind
+        u5 = q5 * ind
+        dd = _dot6(u0, u1, u2, u3, u4, u5, d0, d1, d2, d3, d4, d5)
+        rc = 1.0
+        if rho < 1.0:  # ρ = 1 (fully mobilised) is the common case: no powers needed
+            lrho = np.log(rho)
+            rc = np.exp(prm[P_CHI] * lrho)
     fac = rc * mT + (1.0 - rc) * mR
-    Tdh = ddot(That, dhat)
-    for i in range(6):
-        Ld[i] = c1 * (F2 * dhat[i] + a2 * That[i] * Tdh)
+    Tu = ca * _dot6(h0, h1, h2, h3, h4, h5, u0, u1, u2, u3, u4, u5)
+    M = max(mR * lam, lam + normN)
     if dd > 0.0:
-        rbr = np.exp(prm[P_BETA_R] * np.log(rho))
+        # loading: M:D = fac L:D + ρ^χ (1 − m_T) (L:δ̂)(δ̂:D) + ρ^χ N (δ̂:D)
+        rbr = 1.0
+        if rho < 1.0:
+            rbr = np.exp(prm[P_BETA_R] * lrho)
         c_l = rc * (1.0 - mT) * dd
         c_n = rc * dd
-        for i in range(6):
-            dT[i] = fac * LD[i] + c_l * Ld[i] + c_n * Nv[i]
-            ddelta[i] = D[i] - rbr * dhat[i] * dd
-    else:
-        c_l = rc * (mR - mT) * dd
-        for i in range(6):
-            dT[i] = fac * LD[i] + c_l * Ld[i]
-            ddelta[i] = D[i]
-    return max(mR * lam, lam + normN), flags
+        dT = (
+            fac * l0 + c_l * (cF * u0 + Tu * h0) + c_n * n0,
+            fac * l1 + c_l * (cF * u1 + Tu * h1) + c_n * n1,
+            fac * l2 + c_l * (cF * u2 + Tu * h2) + c_n * n2,
+            fac * l3 + c_l * (cF * u3 + Tu * h3) + c_n * n3,
+            fac * l4 + c_l * (cF * u4 + Tu * h4) + c_n * n4,
+            fac * l5 + c_l * (cF * u5 + Tu * h5) + c_n * n5,
+        )
+        k = rbr * dd
+        ddl = (d0 - k * u0, d1 - k * u1, d2 - k * u2, d3 - k * u3, d4 - k * u4, d5 - k * u5)
+        return dT, ddl, M, flags
+    # reversal or neutral: M:D = fac L:D + ρ^χ (m_R − m_T) (L:δ̂)(δ̂:D)
+    c_l = rc * (mR - mT) * dd
+    dT = (
+        fac * l0 + c_l * (cF * u0 + Tu * h0),
+        fac * l1 + c_l * (cF * u1 + Tu * h1),
+        fac * l2 + c_l * (cF * u2 + Tu * h2),
+        fac * l3 + c_l * (cF * u3 + Tu * h3),
+        fac * l4 + c_l * (cF * u4 + Tu * h4),
+        fac * l5 + c_l * (cF * u5 + Tu * h5),
+    )
+    return dT, D, M, flags
+
+
+@njit(**KERNEL_OPTIONS)
+def rate(prm, T, e, delta, D, dT, ddelta, w):
+    """Stress and intergranular-strain increments dT = T̊(D), ddelta = δ̊(D) for the stretching D.
+
+    T must be admissible (see :func:`apply_stress_floor`). ``w`` is unused scratch kept for interface
+    stability. Returns (M, flags): M is an upper bound of the P-wave (acoustic) modulus of the current
+    tangent, m_R·λ_max(L) or λ_max(L) + ‖N‖ whichever is larger, with λ_max(L) ≤ c₁(F² + a² g²) and
+    g ≥ the largest principal value of T̂ (Gershgorin). It is exact for an isotropic state.
+    """
+    a, b, M, flags = rate_scalar(
+        prm,
+        (T[0], T[1], T[2], T[3], T[4], T[5]),
+        e,
+        (delta[0], delta[1], delta[2], delta[3], delta[4], delta[5]),
+        (D[0], D[1], D[2], D[3], D[4], D[5]),
+    )
+    for i in range(6):
+        dT[i] = a[i]
+        ddelta[i] = b[i]
+    return M, flags
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def volume_ratio(x):
+    """J_{n+1}/J_n = exp(x) for the volumetric strain increment x; a 5-term series below 1e-4, where
+    it equals exp to round-off (the next term is < 1e-22), saves the call in explicit steps."""
+    if abs(x) < 1.0e-4:
+        return 1.0 + x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0))))
+    return np.exp(x)
+
+
+@njit(**KERNEL_OPTIONS)
+def euler_tuple(prm, T, e, q, deps, nsub):
+    """nsub equal forward-Euler substeps on register tuples: returns (T, e, δ, M, flags)."""
+    pmin = prm[P_PMIN]
+    T, flags = floor_tuple(pmin, T)
+    inv = 1.0 / nsub
+    D = (deps[0] * inv, deps[1] * inv, deps[2] * inv, deps[3] * inv, deps[4] * inv, deps[5] * inv)
+    vol = volume_ratio(D[0] + D[1] + D[2])
+    igs = prm[P_IGS] != 0.0
+    R = prm[P_R]
+    M = 0.0
+    for k in range(nsub):
+        if k > 0:
+            T, f = floor_tuple(pmin, T)
+            flags |= f
+        dT, dq, M, f = rate_scalar(prm, T, e, q, D)
+        flags |= f
+        T = (T[0] + dT[0], T[1] + dT[1], T[2] + dT[2], T[3] + dT[3], T[4] + dT[4], T[5] + dT[5])
+        e = (1.0 + e) * vol - 1.0
+        if igs:
+            q0 = q[0] + dq[0]
+            q1 = q[1] + dq[1]
+            q2 = q[2] + dq[2]
+            q3 = q[3] + dq[3]
+            q4 = q[4] + dq[4]
+            q5 = q[5] + dq[5]
+            nq = np.sqrt(_dot6(q0, q1, q2, q3, q4, q5, q0, q1, q2, q3, q4, q5))
+            s = 1.0
+            if nq > R:
+                s = R / nq
+                flags |= fl.RHO_CLIPPED
+            q = (q0 * s, q1 * s, q2 * s, q3 * s, q4 * s, q5 * s)
+    T, f = floor_tuple(pmin, T)
+    return T, e, q, M, flags | f
 
 
 @njit(**KERNEL_OPTIONS)
 def _euler_substeps(prm, T, state, deps, nsub, w):
-    """nsub equal forward-Euler substeps (explicit field solver)."""
-    flags = 0
-    D = w[30:36]
-    dT = w[36:42]
-    dd = w[42:48]
-    delta = state[1:7]
-    inv = 1.0 / nsub
+    """Array wrapper of :func:`euler_tuple` (in place)."""
+    t, e, q, M, flags = euler_tuple(
+        prm,
+        (T[0], T[1], T[2], T[3], T[4], T[5]),
+        state[0],
+        (state[1], state[2], state[3], state[4], state[5], state[6]),
+        (deps[0], deps[1], deps[2], deps[3], deps[4], deps[5]),
+        nsub,
+    )
     for i in range(6):
-        D[i] = deps[i] * inv
-    vol = np.exp(D[0] + D[1] + D[2])
-    M = 0.0
-    for _ in range(nsub):
-        flags |= apply_stress_floor(prm, T)
-        M, f = rate(prm, T, state[0], delta, D, dT, dd, w)
-        flags |= f
-        for i in range(6):
-            T[i] += dT[i]
-            delta[i] += dd[i]
-        state[0] = (1.0 + state[0]) * vol - 1.0
-        flags |= clip_intergranular(prm, delta)
-    flags |= apply_stress_floor(prm, T)
+        T[i] = t[i]
+        state[i + 1] = q[i]
+    state[0] = e
     return M, flags
 
 
@@ -373,3 +462,33 @@ def stiffness(prm, stress, state, w):
         D[i] = 0.0
     M, _ = rate(prm, stress, state[0], state[1:7], D, dT, dd, w)
     return M
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def hypoplastic_cell(prm, stress, state, deps, dspin, i, nsub):
+    """Field-solver path of :func:`hypoplastic_update` for row i of the cell arrays (Euler substeps).
+
+    Same arithmetic as the point update, but on register tuples with one load and one store per cell
+    (no array views, so no reference counting in the inner loop)."""
+    T = (stress[i, 0], stress[i, 1], stress[i, 2], stress[i, 3], stress[i, 4], stress[i, 5])
+    q = (state[i, 1], state[i, 2], state[i, 3], state[i, 4], state[i, 5], state[i, 6])
+    e = state[i, 0]
+    w12 = dspin[i, 0]
+    w13 = dspin[i, 1]
+    w23 = dspin[i, 2]
+    if w12 != 0.0 or w13 != 0.0 or w23 != 0.0:
+        T = co_rotate_tuple(T, w12, w13, w23)
+        if prm[P_IGS] != 0.0:
+            q = co_rotate_tuple(q, w12, w13, w23)
+    D = (deps[i, 0], deps[i, 1], deps[i, 2], deps[i, 3], deps[i, 4], deps[i, 5])
+    if D[0] == 0.0 and D[1] == 0.0 and D[2] == 0.0 and D[3] == 0.0 and D[4] == 0.0 and D[5] == 0.0:
+        T, f = floor_tuple(prm[P_PMIN], T)
+        _, _, M, _ = rate_scalar(prm, T, e, q, D)
+        flags = fl.ZERO_INCREMENT | f
+    else:
+        T, e, q, M, flags = euler_tuple(prm, T, e, q, D, nsub)
+    for k in range(6):
+        stress[i, k] = T[k]
+        state[i, k + 1] = q[k]
+    state[i, 0] = e
+    return M, flags

@@ -12,7 +12,7 @@ import numpy as np
 from numba import get_num_threads, njit, prange
 
 from .elastic import elastic_update
-from .hypoplastic import WORK_SIZE, hypoplastic_update
+from .hypoplastic import WORK_SIZE, hypoplastic_cell, hypoplastic_update
 from .mohr_coulomb import mc_update
 from .tensor import KERNEL_OPTIONS, norm
 
@@ -54,6 +54,9 @@ def _update_cells(model, prm, stress, state, deps, dspin, max_substep_strain, mo
             nsub = 1
             if max_substep_strain > 0.0:
                 nsub = max(1, int(np.ceil(norm(deps[i]) / max_substep_strain)))
-            m, f = update_point(model, prm, stress[i], state[i], deps[i], dspin[i], 0.0, nsub, work)
+            if model == HYPOPLASTIC:
+                m, f = hypoplastic_cell(prm, stress, state, deps, dspin, i, nsub)
+            else:
+                m, f = update_point(model, prm, stress[i], state[i], deps[i], dspin[i], 0.0, nsub, work)
             modulus[i] = m
             flags[i] = f

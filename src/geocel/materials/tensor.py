@@ -118,43 +118,14 @@ def hughes_winget(dw, q):
     q[2, 1] = c * (w1 + w2 * w3)
 
 
-@njit(cache=True)
-def rotate(a, q):
-    """a ← Q a Qᵀ for a symmetric 6-vector a and a 3x3 rotation q (in place, no allocation)."""
-    m00 = a[0]
-    m11 = a[1]
-    m22 = a[2]
-    m01 = a[3]
-    m02 = a[4]
-    m12 = a[5]
-    # rows of Q·A
-    r00 = q[0, 0] * m00 + q[0, 1] * m01 + q[0, 2] * m02
-    r01 = q[0, 0] * m01 + q[0, 1] * m11 + q[0, 2] * m12
-    r02 = q[0, 0] * m02 + q[0, 1] * m12 + q[0, 2] * m22
-    r10 = q[1, 0] * m00 + q[1, 1] * m01 + q[1, 2] * m02
-    r11 = q[1, 0] * m01 + q[1, 1] * m11 + q[1, 2] * m12
-    r12 = q[1, 0] * m02 + q[1, 1] * m12 + q[1, 2] * m22
-    r20 = q[2, 0] * m00 + q[2, 1] * m01 + q[2, 2] * m02
-    r21 = q[2, 0] * m01 + q[2, 1] * m11 + q[2, 2] * m12
-    r22 = q[2, 0] * m02 + q[2, 1] * m12 + q[2, 2] * m22
-    a[0] = r00 * q[0, 0] + r01 * q[0, 1] + r02 * q[0, 2]
-    a[1] = r10 * q[1, 0] + r11 * q[1, 1] + r12 * q[1, 2]
-    a[2] = r20 * q[2, 0] + r21 * q[2, 1] + r22 * q[2, 2]
-    a[3] = r00 * q[1, 0] + r01 * q[1, 1] + r02 * q[1, 2]
-    a[4] = r00 * q[2, 0] + r01 * q[2, 1] + r02 * q[2, 2]
-    a[5] = r10 * q[2, 0] + r11 * q[2, 1] + r12 * q[2, 2]
+@njit(inline="always", **KERNEL_OPTIONS)
+def co_rotate_tuple(a, w12, w13, w23):
+    """Q a Qᵀ for a 6-tuple a and the Hughes–Winget rotation of the spin increment (W12, W13, W23).
 
-
-@njit(**KERNEL_OPTIONS)
-def co_rotate(a, dw):
-    """Jaumann co-rotation of the symmetric tensor a with the spin increment dw (in place).
-
-    Hughes–Winget rotation in closed form, no allocation; skipped for an exactly zero spin."""
-    if dw[0] == 0.0 and dw[1] == 0.0 and dw[2] == 0.0:
-        return
-    w1 = -0.5 * dw[2]
-    w2 = 0.5 * dw[1]
-    w3 = -0.5 * dw[0]
+    Closed-form Cayley transform (see :func:`hughes_winget`); returns a new 6-tuple, no allocation."""
+    w1 = -0.5 * w23
+    w2 = 0.5 * w13
+    w3 = -0.5 * w12
     ww = w1 * w1 + w2 * w2 + w3 * w3
     c = 2.0 / (1.0 + ww)
     q00 = 1.0 + c * (w1 * w1 - ww)
@@ -166,12 +137,7 @@ def co_rotate(a, dw):
     q20 = c * (-w2 + w1 * w3)
     q12 = c * (-w1 + w2 * w3)
     q21 = c * (w1 + w2 * w3)
-    m00 = a[0]
-    m11 = a[1]
-    m22 = a[2]
-    m01 = a[3]
-    m02 = a[4]
-    m12 = a[5]
+    m00, m11, m22, m01, m02, m12 = a
     r00 = q00 * m00 + q01 * m01 + q02 * m02
     r01 = q00 * m01 + q01 * m11 + q02 * m12
     r02 = q00 * m02 + q01 * m12 + q02 * m22
@@ -181,12 +147,26 @@ def co_rotate(a, dw):
     r20 = q20 * m00 + q21 * m01 + q22 * m02
     r21 = q20 * m01 + q21 * m11 + q22 * m12
     r22 = q20 * m02 + q21 * m12 + q22 * m22
-    a[0] = r00 * q00 + r01 * q01 + r02 * q02
-    a[1] = r10 * q10 + r11 * q11 + r12 * q12
-    a[2] = r20 * q20 + r21 * q21 + r22 * q22
-    a[3] = r00 * q10 + r01 * q11 + r02 * q12
-    a[4] = r00 * q20 + r01 * q21 + r02 * q22
-    a[5] = r10 * q20 + r11 * q21 + r12 * q22
+    return (
+        r00 * q00 + r01 * q01 + r02 * q02,
+        r10 * q10 + r11 * q11 + r12 * q12,
+        r20 * q20 + r21 * q21 + r22 * q22,
+        r00 * q10 + r01 * q11 + r02 * q12,
+        r00 * q20 + r01 * q21 + r02 * q22,
+        r10 * q20 + r11 * q21 + r12 * q22,
+    )
+
+
+@njit(**KERNEL_OPTIONS)
+def co_rotate(a, dw):
+    """Jaumann co-rotation of the symmetric tensor a with the spin increment dw (in place).
+
+    Hughes–Winget rotation; skipped for an exactly zero spin."""
+    if dw[0] == 0.0 and dw[1] == 0.0 and dw[2] == 0.0:
+        return
+    r = co_rotate_tuple((a[0], a[1], a[2], a[3], a[4], a[5]), dw[0], dw[1], dw[2])
+    for i in range(6):
+        a[i] = r[i]
 
 
 def invariants_pq(stress: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
