@@ -144,3 +144,16 @@ def test_cli_path_kind(tmp_path):
     df = pd.read_csv(tmp_path / "o" / "element_test.csv")
     assert len(df) == 11
     assert df["eps_zz"].iloc[-1] == pytest.approx(-1e-3)
+
+
+def test_cli_demo_runs_and_writes_results(tmp_path):
+    res = runner.invoke(app, ["demo", "--out", str(tmp_path / "demo")])
+    assert res.exit_code == 0, res.output
+    for label in ("dense", "loose"):
+        d = tmp_path / "demo" / f"triaxial-{label}"
+        assert (d / "element_test.csv").is_file() and (d / "element_test.png").is_file()
+    dense = json.loads((tmp_path / "demo" / "triaxial-dense" / "key_figures.json").read_text())["key_figures"]
+    loose = json.loads((tmp_path / "demo" / "triaxial-loose" / "key_figures.json").read_text())["key_figures"]
+    # dense sand peaks above the critical friction angle and dilates; loose sand does not peak
+    assert dense["phi_peak_deg"] > loose["phi_peak_deg"] + 3.0
+    assert dense["dilatancy_angle_peak_deg"] > 0.0 > loose["dilatancy_angle_peak_deg"]

@@ -465,22 +465,19 @@ def stiffness(prm, stress, state, w):
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
-def hypoplastic_cell(prm, stress, state, deps, dspin, i, nsub):
-    """Field-solver path of :func:`hypoplastic_update` for row i of the cell arrays (Euler substeps).
+def hypoplastic_cell(prm, stress, state, i, D, w12, w13, w23, nsub):
+    """Field-solver path of :func:`hypoplastic_update` for row i of the (n, 6) / (n, 7) cell arrays, with
+    the strain increment D as a 6-tuple and the spin increment (W12, W13, W23) (Euler substeps).
 
     Same arithmetic as the point update, but on register tuples with one load and one store per cell
     (no array views, so no reference counting in the inner loop)."""
     T = (stress[i, 0], stress[i, 1], stress[i, 2], stress[i, 3], stress[i, 4], stress[i, 5])
     q = (state[i, 1], state[i, 2], state[i, 3], state[i, 4], state[i, 5], state[i, 6])
     e = state[i, 0]
-    w12 = dspin[i, 0]
-    w13 = dspin[i, 1]
-    w23 = dspin[i, 2]
     if w12 != 0.0 or w13 != 0.0 or w23 != 0.0:
         T = co_rotate_tuple(T, w12, w13, w23)
         if prm[P_IGS] != 0.0:
             q = co_rotate_tuple(q, w12, w13, w23)
-    D = (deps[i, 0], deps[i, 1], deps[i, 2], deps[i, 3], deps[i, 4], deps[i, 5])
     if D[0] == 0.0 and D[1] == 0.0 and D[2] == 0.0 and D[3] == 0.0 and D[4] == 0.0 and D[5] == 0.0:
         T, f = floor_tuple(prm[P_PMIN], T)
         _, _, M, _ = rate_scalar(prm, T, e, q, D)

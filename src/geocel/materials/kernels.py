@@ -55,7 +55,8 @@ def _update_cells(model, prm, stress, state, deps, dspin, max_substep_strain, mo
             if max_substep_strain > 0.0:
                 nsub = max(1, int(np.ceil(norm(deps[i]) / max_substep_strain)))
             if model == HYPOPLASTIC:
-                m, f = hypoplastic_cell(prm, stress, state, deps, dspin, i, nsub)
+                D = (deps[i, 0], deps[i, 1], deps[i, 2], deps[i, 3], deps[i, 4], deps[i, 5])
+                m, f = hypoplastic_cell(prm, stress, state, i, D, dspin[i, 0], dspin[i, 1], dspin[i, 2], nsub)
             else:
                 m, f = update_point(model, prm, stress[i], state[i], deps[i], dspin[i], 0.0, nsub, work)
             modulus[i] = m
