@@ -78,7 +78,9 @@ class Grid:
         self.z = np.ascontiguousarray(self.z, dtype=float)
         for name, a in (("x", self.x), ("y", self.y), ("z", self.z)):
             if a.ndim != 1 or a.size < 2 or np.any(np.diff(a) <= 0):
-                raise ValueError(f"grid {name} coordinates must be a strictly increasing 1-D array of ≥ 2 nodes")
+                raise ValueError(
+                    f"grid {name} coordinates must be a strictly increasing 1-D array of ≥ 2 nodes"
+                )
         if self.symmetry not in SYMMETRIES:
             raise ValueError(f"symmetry = {self.symmetry!r}: choose one of {SYMMETRIES}")
         if self.active2d is None:
@@ -129,7 +131,11 @@ class Grid:
 
     @classmethod
     def uniform(
-        cls, shape: tuple[int, int, int], size: float | tuple[float, float, float], origin=(0.0, 0.0, 0.0), **kw
+        cls,
+        shape: tuple[int, int, int],
+        size: float | tuple[float, float, float],
+        origin=(0.0, 0.0, 0.0),
+        **kw,
     ) -> Grid:
         """Uniform box grid of ``shape`` cells (tests, small studies)."""
         h = (size, size, size) if np.isscalar(size) else size
@@ -204,26 +210,29 @@ class Grid:
         )
 
     # --- boundary conditions of the nodes ---------------------------------------------------------------------
-    def node_constraints(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per-node fixed components (nx+1, ny+1, nz+1, 3) uint8 and a (nx+1, ny+1) uint8 radial-roller flag.
+    def node_constraints(self) -> np.ndarray:
+        """Per-node fixed velocity components, (nx+1, ny+1, nz+1, 3) uint8.
 
-        Symmetry planes and the outer box faces fix the normal component (rollers), the base is fixed in all
-        directions; nodes on the staircase wall of a cylinder mask get a radial roller (radial velocity
-        removed, vertical free); nodes that touch no active cell are fixed entirely."""
+        Symmetry planes and the outer box faces fix the normal component (rollers); the base is fixed in
+        all directions. Nodes on the staircase wall of a cylinder mask are fixed horizontally and free
+        vertically (the container wall: radially fixed; the circumferential component vanishes by
+        axisymmetry, and fixing it keeps the staircase from producing spurious tangential motion). Nodes
+        that touch no active cell are fixed entirely."""
         fix = np.zeros((self.nx + 1, self.ny + 1, self.nz + 1, 3), dtype=np.uint8)
         fix[0, :, :, 0] = 1
         fix[-1, :, :, 0] = 1
         fix[:, 0, :, 1] = 1
         fix[:, -1, :, 1] = 1
         fix[:, :, 0, :] = 1
-        # columns of nodes touching active / inactive cells
         pad = np.zeros((self.nx + 2, self.ny + 2), dtype=bool)
         pad[1:-1, 1:-1] = self.active2d
         touch_active = pad[:-1, :-1] | pad[1:, :-1] | pad[:-1, 1:] | pad[1:, 1:]
-        inside_box = np.ones((self.nx + 2, self.ny + 2), dtype=bool)
-        inside_box[0, :] = inside_box[-1, :] = inside_box[:, 0] = inside_box[:, -1] = False
-        inactive = inside_box & ~pad
+        inside = np.zeros((self.nx + 2, self.ny + 2), dtype=bool)
+        inside[1:-1, 1:-1] = True
+        inactive = inside & ~pad
         touch_inactive = inactive[:-1, :-1] | inactive[1:, :-1] | inactive[:-1, 1:] | inactive[1:, 1:]
-        radial = (touch_active & touch_inactive).astype(np.uint8)
+        wall = touch_active & touch_inactive
+        fix[wall, :, 0] = 1
+        fix[wall, :, 1] = 1
         fix[~touch_active] = 1
-        return fix, radial
+        return fix

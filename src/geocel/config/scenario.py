@@ -1,0 +1,598 @@
+"""The scenario file: a typed, validated mirror of the TOML contract of DESIGN.md §1.
+
+Every table of the file is a pydantic model with ``extra="forbid"`` (a misspelt key is an error), every
+field carries its unit in the description, a default where one is sensible and a range check. The file
+is parsed into exactly these objects, and the Python API builds the same objects directly::
+
+    s = load_scenario("my_test.toml")            # ScenarioError lists every bad field
+    s.soil.material                                # Elastic | MohrCoulomb | Hypoplastic
+    s.soil.layers[0].e0, s.soil.void_ratio_of(s.soil.layers[0])
+    text = dump_scenario(s)                        # resolved TOML (the run directory's config.toml)
+
+Error messages name the table, the key, the value and the reason, one line per problem, e.g.
+``[domain].growth = 3: Input should be less than or equal to 2``.
+
+The ``[soil]`` table is flat in the file (``model``, ``preset`` and any material parameter, plus
+``[[soil.layers]]``) but structured in Python: :class:`Soil` has ``material`` (built from the preset
+merged with the overriding keys, exactly as :func:`~geocel.config.materials.material_from_dict`) and
+``layers``. :func:`dump_scenario` writes the soil back flat with *all* material parameters and no preset,
+so the written file is self-contained.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Any, Literal, get_args
+
+import numpy as np
+import tomli_w
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic_core import PydanticCustomError
+
+from .materials import _CLASSES, PRESETS, Elastic, Hypoplastic, Material, MohrCoulomb
+
+__all__ = [
+    "Contact",
+    "Domain",
+    "Dummy",
+    "Initial",
+    "Layer",
+    "Loading",
+    "Output",
+    "Pile",
+    "PileMaterial",
+    "Reference",
+    "Scaling",
+    "Scenario",
+    "ScenarioError",
+    "Soil",
+    "Solver",
+    "dump_scenario",
+    "load_scenario",
+    "scenario_from_dict",
+    "scenario_to_dict",
+]
+
+MaterialModel = Elastic | MohrCoulomb | Hypoplastic
+
+
+class ScenarioError(ValueError):
+    """Invalid scenario input; ``problems`` holds one ``[table].key = value: reason`` line per problem."""
+
+    def __init__(self, problems: list[str], source: str | None = None) -> None:
+        self.problems = list(problems)
+        self.source = source
+        head = f"invalid scenario{f' {source}' if source else ''}"
+        super().__init__(head + ":\n" + "\n".join(f"  {p}" for p in self.problems))
+
+
+# --------------------------------------------------------------------------------------------------------
+# helpers for errors that name a key of a table
+# --------------------------------------------------------------------------------------------------------
+
+
+def _fmt_value(value: Any) -> str:
+    """A value as it would look in TOML (short)."""
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, str):
+        text = f'"{value}"'
+    elif isinstance(value, float | int):
+        text = repr(value)
+    else:
+        text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _path_text(parts: list[str | int] | tuple[str | int, ...]) -> str:
+    out = ""
+    for p in parts:
+        if isinstance(p, int):
+            out += f"[{p}]"
+        else:
+            out += f".{p}" if out else str(p)
+    return out
+
+
+def _invalid(loc: tuple[str | int, ...], value: Any, reason: str) -> PydanticCustomError:
+    """An error of a key ``loc`` (relative to the model that raises it) with its value and the reason."""
+    where = _path_text(loc)
+    return PydanticCustomError(
+        "scenario_value",
+        "{where} = {value}: {reason}",
+        {"where": where, "loc": tuple(loc), "value": _fmt_value(value), "reason": reason},
+    )
+
+
+class _Table(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+# --------------------------------------------------------------------------------------------------------
+# tables
+# --------------------------------------------------------------------------------------------------------
+
+
+class Domain(_Table):
+    """``[domain]``: extent and grading of the Eulerian grid."""
+
+    symmetry: Literal["quarter", "half", "full"] = Field(
+        "quarter", description="modelled part: quarter (x, y ≥ 0), half (y ≥ 0) or full"
+    )
+    radius: float = Field(21.25, gt=0.0, description="lateral extent from the pile axis, m")
+    cylinder_mask: bool = Field(True, description="mask cells beyond `radius` (container wall), else a box")
+    soil_depth: float = Field(26.0, gt=0.0, description="depth of soil below the surface, m")
+    void_height: float = Field(1.0, ge=0.0, description="height of the void above the surface (heave), m")
+    fine_size: float = Field(0.10, gt=0.0, description="cell size in the fine zone around the pile, m")
+    fine_radius: float = Field(1.5, ge=0.0, description="radius of the fine zone, m")
+    fine_depth: float = Field(12.0, ge=0.0, description="depth below the surface covered by the fine zone, m")
+    growth: float = Field(
+        1.15, ge=1.0, le=2.0, description="largest ratio of neighbouring cell sizes outside the fine zone, -"
+    )
+    max_size: float | None = Field(None, gt=0.0, description="largest cell size, m (None: no limit)")
+
+    @model_validator(mode="after")
+    def _check(self) -> Domain:
+        if self.fine_size >= self.radius:
+            raise _invalid(("fine_size",), self.fine_size, f"must be smaller than radius = {self.radius} m")
+        if self.fine_size >= self.soil_depth:
+            raise _invalid(
+                ("fine_size",), self.fine_size, f"must be smaller than soil_depth = {self.soil_depth} m"
+            )
+        if self.fine_depth > self.soil_depth:
+            raise _invalid(("fine_depth",), self.fine_depth, f"must be ≤ soil_depth = {self.soil_depth} m")
+        if self.fine_radius > self.radius:
+            raise _invalid(("fine_radius",), self.fine_radius, f"must be ≤ radius = {self.radius} m")
+        if self.max_size is not None and self.max_size < self.fine_size:
+            raise _invalid(("max_size",), self.max_size, f"must be ≥ fine_size = {self.fine_size} m")
+        return self
+
+
+class Layer(_Table):
+    """``[[soil.layers]]``: a soil layer from ``top`` down to the next layer (or the base)."""
+
+    top: float = Field(0.0, ge=0.0, description="depth of the top of the layer below the surface, m")
+    e0: float | None = Field(None, gt=0.0, lt=5.0, description="initial void ratio e_0, -")
+    relative_density: float | None = Field(
+        None, ge=0.0, le=1.0, description="relative density I_D (0 loosest … 1 densest), -"
+    )
+
+    @model_validator(mode="after")
+    def _one_of(self) -> Layer:
+        if (self.e0 is None) == (self.relative_density is None):
+            both = self.e0 is not None
+            raise _invalid(
+                ("e0",),
+                self.e0,
+                "give exactly one of e0 and relative_density"
+                + (f" (got both, relative_density = {self.relative_density})" if both else " (got neither)"),
+            )
+        return self
+
+
+class Soil(_Table):
+    """``[soil]``: the material (flat keys ``model``, ``preset``, parameters) and ``[[soil.layers]]``.
+
+    In Python: ``Soil(material=Hypoplastic.fraction_e(), layers=[Layer(top=0.0, e0=0.62)])``; from the
+    flat TOML table the material is built as by ``material_from_dict`` (preset merged with overrides,
+    ``model`` defaults to the preset's or to ``hypoplastic``)."""
+
+    material: Material = Field(..., description="constitutive model and its parameters")
+    layers: list[Layer] = Field(..., min_length=1, description="layers from the surface downwards")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _from_flat_table(cls, data: Any) -> Any:
+        if not isinstance(data, dict) or "material" in data:
+            return data
+        table = dict(data)
+        layers = table.pop("layers", None)
+        preset = table.pop("preset", None)
+        base: dict[str, Any] = {}
+        if preset is not None:
+            if preset not in PRESETS:
+                raise _invalid(("preset",), preset, f"unknown preset; choose one of {sorted(PRESETS)}")
+            base = dict(PRESETS[preset])
+            if "model" in table and table["model"] != base["model"]:
+                raise _invalid(
+                    ("model",),
+                    table["model"],
+                    f"preset {preset!r} is a {base['model']!r} parameter set; drop the preset or the model",
+                )
+        merged = {**base, **table}
+        merged.setdefault("model", "hypoplastic")
+        out: dict[str, Any] = {"material": merged}
+        if layers is not None:
+            out["layers"] = layers
+        return out
+
+    @model_validator(mode="after")
+    def _check_layers(self) -> Soil:
+        tops = [layer.top for layer in self.layers]
+        if tops[0] != 0.0:
+            raise _invalid(("layers", 0, "top"), tops[0], "the first layer must start at the surface (0.0)")
+        for i in range(1, len(tops)):
+            if tops[i] <= tops[i - 1]:
+                raise _invalid(
+                    ("layers", i, "top"), tops[i], f"tops must increase strictly (previous {tops[i - 1]} m)"
+                )
+        for i, layer in enumerate(self.layers):
+            if layer.relative_density is not None and not isinstance(self.material, Hypoplastic):
+                raise _invalid(
+                    ("layers", i, "relative_density"),
+                    layer.relative_density,
+                    f"needs a hypoplastic material (e_c0, e_d0); give e0 for model = {self.material.model!r}",
+                )
+            if (
+                layer.e0 is not None
+                and isinstance(self.material, Hypoplastic)
+                and layer.e0 > self.material.e_i0
+            ):
+                raise _invalid(
+                    ("layers", i, "e0"),
+                    layer.e0,
+                    f"exceeds the loosest void ratio e_i0 = {self.material.e_i0}",
+                )
+        return self
+
+    def void_ratio_of(self, layer: Layer, material: MaterialModel | None = None) -> float:
+        """Initial void ratio of ``layer``, -.
+
+        ``e0`` if given; else from the relative density I_D with the common convention e_max ≈ e_c0,
+        e_min ≈ e_d0 of hypoplasticity: e = e_c0 − I_D (e_c0 − e_d0). ``material`` defaults to
+        ``self.material``; relative density needs a hypoplastic material."""
+        mat = self.material if material is None else material
+        if layer.e0 is not None:
+            return float(layer.e0)
+        if not isinstance(mat, Hypoplastic):
+            raise ValueError(
+                f"relative_density = {layer.relative_density} needs a hypoplastic material; give e0 for "
+                f"model = {mat.model!r}"
+            )
+        assert layer.relative_density is not None
+        return float(mat.e_c0 - layer.relative_density * (mat.e_c0 - mat.e_d0))
+
+    def layer_index(self, depth: float | np.ndarray) -> np.ndarray:
+        """Index of the layer holding each depth below the surface (m); depths above the surface → 0."""
+        tops = np.array([layer.top for layer in self.layers])
+        idx = np.searchsorted(tops, np.asarray(depth, dtype=float), side="right") - 1
+        return np.clip(idx, 0, len(tops) - 1)
+
+    def void_ratio_at(self, depth: float | np.ndarray) -> np.ndarray:
+        """Initial void ratio (-) at depths below the surface (m), layer by layer."""
+        e = np.array([self.void_ratio_of(layer) for layer in self.layers])
+        return e[self.layer_index(depth)]
+
+
+class Initial(_Table):
+    """``[initial]``: the geostatic initial state."""
+
+    k0: float = Field(0.5, gt=0.0, le=3.0, description="earth-pressure coefficient σ_h/σ_v at rest, -")
+    intergranular_strain: Literal["vertical", "zero"] = Field(
+        "vertical",
+        description="initial intergranular strain: fully mobilised in vertical compression, or zero",
+    )
+
+
+class PileMaterial(_Table):
+    """``[pile].material``: linear elastic pile material (steel by default)."""
+
+    youngs_modulus: float = Field(210.0e9, gt=0.0, description="Young's modulus E, Pa")
+    poisson_ratio: float = Field(0.3, gt=-1.0, lt=0.5, description="Poisson's ratio ν, -")
+    density: float = Field(7850.0, gt=0.0, le=1.0e5, description="density ρ, kg/m³")
+
+
+class Dummy(_Table):
+    """``[pile].dummy``: the soft volume elements of the beam–volume coupled pile (ratios to the steel)."""
+
+    modulus_ratio: float = Field(0.0005, gt=0.0, le=1.0, description="E_dummy / E_steel, -")
+    density_ratio: float = Field(0.01, gt=0.0, le=1.0, description="ρ_dummy / ρ_steel, -")
+
+
+class Pile(_Table):
+    """``[pile]`` (optional): a closed-ended cylindrical pile on the z axis, jacked downwards."""
+
+    type: Literal["rigid", "solid", "coupled"] = Field(
+        "coupled", description="rigid body, solid hexahedra, or beam–volume coupled"
+    )
+    diameter: float = Field(0.6, gt=0.0, description="outer diameter D, m")
+    length: float = Field(11.0, gt=0.0, description="length L, m")
+    initial_embedment: float = Field(
+        0.0, ge=0.0, description="depth of the pile tip below the surface at t=0, m"
+    )
+    tip: Literal["flat", "conical"] = Field("flat", description="shape of the pile tip")
+    tip_angle: float = Field(60.0, gt=0.0, lt=180.0, description="apex angle of a conical tip, degrees")
+    material: PileMaterial = Field(default_factory=PileMaterial, description="pile material")
+    dummy: Dummy = Field(default_factory=Dummy, description="dummy volume material (coupled pile only)")
+
+    @model_validator(mode="after")
+    def _check(self) -> Pile:
+        if self.initial_embedment > self.length:
+            raise _invalid(
+                ("initial_embedment",), self.initial_embedment, f"must be ≤ length = {self.length} m"
+            )
+        return self
+
+
+class Contact(_Table):
+    """``[contact]``: soil–pile contact."""
+
+    friction: float | None = Field(
+        None, ge=0.0, le=2.0, description="Coulomb friction coefficient μ, - (None: tan(2/3 φ_c))"
+    )
+
+    def friction_coefficient(self, material: MaterialModel) -> float:
+        """μ, -: ``friction`` if given, else tan(2/3 φ) with φ = φ_c (hypoplastic) or φ (Mohr–Coulomb)."""
+        if self.friction is not None:
+            return float(self.friction)
+        if isinstance(material, Hypoplastic):
+            phi = material.phi_c
+        elif isinstance(material, MohrCoulomb):
+            phi = material.friction_angle
+        else:
+            raise ValueError(f"[contact].friction must be given for model = {material.model!r} (no φ)")
+        return math.tan(math.radians(2.0 / 3.0 * phi))
+
+
+class Loading(_Table):
+    """``[loading]``: jacking of the pile head (prototype values)."""
+
+    velocity: float = Field(0.02, gt=0.0, le=100.0, description="jacking velocity at the pile head, m/s")
+    penetration: float = Field(9.0, gt=0.0, description="penetration to reach (stop criterion), m")
+    ramp: float = Field(0.05, ge=0.0, description="penetration over which the velocity builds up smoothly, m")
+    duration: float | None = Field(
+        None, gt=0.0, description="simulated time for runs without a pile (e.g. geostatic), s"
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> Loading:
+        if self.ramp > self.penetration:
+            raise _invalid(("ramp",), self.ramp, f"must be ≤ penetration = {self.penetration} m")
+        return self
+
+
+class Scaling(_Table):
+    """``[scaling]``: mass-gravity scaling (MGS) and velocity scaling."""
+
+    mass_gravity: float = Field(1.0, ge=1.0, le=1.0e4, description="MGS factor S (1 = off), -")
+    scale_pile_density: bool = Field(True, description="multiply the pile density by S as well")
+    velocity_factor: float = Field(
+        1.0, gt=0.0, le=1.0e4, description="factor on the jacking velocity (alternative time scaling), -"
+    )
+
+
+class Output(_Table):
+    """``[output]``: schedules of the outputs (whichever of penetration/time comes first)."""
+
+    history_every: float = Field(0.01, gt=0.0, description="history row every Δ penetration, m")
+    fields_every: float = Field(0.5, gt=0.0, description="field snapshot every Δ penetration, m")
+    history_every_time: float | None = Field(None, gt=0.0, description="history row every Δt (optional), s")
+    fields_every_time: float | None = Field(None, gt=0.0, description="field snapshot every Δt (optional), s")
+    checkpoint_every_steps: int = Field(20000, gt=0, description="checkpoint every N steps, -")
+    directory: str | None = Field(None, min_length=1, description="run directory (None: the runner decides)")
+
+
+class Reference(_Table):
+    """``[reference]``: a measured curve, CSV with ``depth_m, qb_MPa[, qs_kPa]``."""
+
+    file: Path | None = Field(None, description="CSV path, relative to the scenario file")
+
+
+class Solver(_Table):
+    """``[solver]``: numerical controls (all optional)."""
+
+    safety_factor: float = Field(0.9, gt=0.0, le=1.0, description="Δt = safety_factor × min L_e/c_d, -")
+    hourglass: float = Field(0.05, ge=0.0, le=1.0, description="hourglass-control coefficient, -")
+    bulk_viscosity_linear: float = Field(0.06, ge=0.0, le=1.0, description="linear bulk viscosity b_1, -")
+    bulk_viscosity_quadratic: float = Field(
+        1.2, ge=0.0, le=10.0, description="quadratic bulk viscosity b_2, -"
+    )
+    gravity: float = Field(
+        9.81, ge=0.0, le=1.0e4, description="gravitational acceleration (before MGS), m/s²"
+    )
+    max_steps: int | None = Field(None, gt=0, description="stop after this many steps (optional), -")
+    kinetic_energy_limit: float | None = Field(
+        None, gt=0.0, description="abort when kinetic/internal energy exceeds this ratio (optional), -"
+    )
+
+
+_NAME_FORBIDDEN = set('/\\\0\n\r\t<>:"|?*')
+
+
+class Scenario(_Table):
+    """A complete scenario: the whole TOML file."""
+
+    name: str = Field(
+        ..., min_length=1, max_length=200, description="scenario name (used for run directories)"
+    )
+    domain: Domain = Field(default_factory=Domain)
+    soil: Soil
+    initial: Initial = Field(default_factory=Initial)
+    pile: Pile | None = Field(None, description="the pile (None: soil-only run)")
+    contact: Contact = Field(default_factory=Contact)
+    loading: Loading = Field(default_factory=Loading)
+    scaling: Scaling = Field(default_factory=Scaling)
+    output: Output = Field(default_factory=Output)
+    reference: Reference | None = Field(None, description="measured curve (optional)")
+    solver: Solver = Field(default_factory=Solver)
+
+    @field_validator("name")
+    @classmethod
+    def _check_name(cls, v: str) -> str:
+        bad = sorted(set(v) & _NAME_FORBIDDEN)
+        if bad or v != v.strip():
+            raise ValueError(f"must be usable as a file name (no {''.join(bad)!r}, no outer blanks)")
+        return v
+
+    @model_validator(mode="after")
+    def _check(self) -> Scenario:
+        if self.pile is not None:
+            if self.pile.diameter / 2.0 >= self.domain.radius:
+                raise _invalid(
+                    ("pile", "diameter"),
+                    self.pile.diameter,
+                    f"pile wider than the domain radius {self.domain.radius} m",
+                )
+            tip = self.pile.initial_embedment + self.loading.penetration
+            if tip >= self.domain.soil_depth:
+                raise _invalid(
+                    ("loading", "penetration"),
+                    self.loading.penetration,
+                    f"the tip would reach {tip} m, beyond soil_depth = {self.domain.soil_depth} m",
+                )
+            if self.contact.friction is None and isinstance(self.soil.material, Elastic):
+                raise _invalid(
+                    ("contact", "friction"),
+                    None,
+                    "required for an elastic soil (no friction angle for the default)",
+                )
+        return self
+
+    def friction_coefficient(self) -> float:
+        """Soil–pile Coulomb friction μ, - (``[contact].friction`` or tan(2/3 φ_c))."""
+        return self.contact.friction_coefficient(self.soil.material)
+
+
+# --------------------------------------------------------------------------------------------------------
+# reading and writing
+# --------------------------------------------------------------------------------------------------------
+
+
+def _model_of(annotation: Any) -> type[BaseModel] | None:
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in get_args(annotation):
+        found = _model_of(arg)
+        if found is not None:
+            return found
+    return None
+
+
+def _table_model(table: list[str | int], hint: type[BaseModel] | None) -> type[BaseModel] | None:
+    if table == ["soil"] and hint is not None:
+        return hint
+    cls: type[BaseModel] | None = Scenario
+    for part in table:
+        if isinstance(part, int) or cls is None:
+            continue
+        field = cls.model_fields.get(part)
+        cls = None if field is None else _model_of(field.annotation)
+    return cls
+
+
+def _describe(err: Any) -> str:
+    """One ``[table].key = value: reason`` line for a pydantic error."""
+    loc: list[str | int] = list(err["loc"])
+    kind: str = err["type"]
+    ctx: dict[str, Any] = err.get("ctx") or {}
+    value: Any = err.get("input")
+    reason: str = err["msg"]
+    hint: type[BaseModel] | None = None
+    value_text: str | None = None
+
+    # the flat [soil] table: soil.material.<model>.<key> -> soil.<key>
+    if loc[:2] == ["soil", "material"]:
+        if len(loc) == 2:
+            loc = ["soil", "model"]
+            if kind.startswith("union_tag"):
+                value = ctx.get("tag", value)
+                reason = f"unknown model; choose one of {ctx.get('expected_tags', sorted(_CLASSES))}"
+        else:
+            hint = _CLASSES.get(str(loc[2]))
+            loc = ["soil", *loc[3:]]
+
+    if kind == "scenario_value":
+        loc = loc + list(ctx.get("loc", ()))
+        value_text = ctx.get("value")
+        reason = ctx.get("reason", reason)
+        is_key = True
+    elif kind in ("extra_forbidden", "missing"):
+        is_key = True
+    else:
+        is_key = not isinstance(value, dict)
+    if reason.startswith("Value error, "):
+        reason = reason[len("Value error, ") :]
+
+    if is_key and loc and isinstance(loc[-1], str):
+        table, key = loc[:-1], str(loc[-1])
+    else:
+        table, key = loc, None
+    if kind == "extra_forbidden":
+        model = _table_model(table, hint)
+        if model is not None:
+            allowed = sorted(model.model_fields)
+            if table == ["soil"]:
+                allowed = sorted({*allowed, "preset", "layers"})
+            reason = f"unknown key (allowed: {', '.join(allowed)})"
+        else:
+            reason = "unknown key"
+    if kind == "missing":
+        reason = "required key is missing"
+
+    where = f"[{_path_text(table)}]" if table else ""
+    if key is not None:
+        where = f"{where}.{key}" if where else key
+    if kind == "missing" or (key is None and value_text is None):
+        return f"{where or '(top level)'}: {reason}"
+    return f"{where} = {value_text if value_text is not None else _fmt_value(value)}: {reason}"
+
+
+def scenario_from_dict(
+    data: dict[str, Any], *, base_dir: str | Path | None = None, source: str | None = None
+) -> Scenario:
+    """Validate a scenario given as a dict (parsed TOML).
+
+    ``base_dir`` (the scenario file's folder): a relative ``[reference].file`` is resolved against it and
+    must exist. Raises :class:`ScenarioError` listing every problem."""
+    try:
+        scenario = Scenario.model_validate(data)
+    except ValidationError as exc:
+        raise ScenarioError([_describe(e) for e in exc.errors()], source) from None
+    if base_dir is not None and scenario.reference is not None and scenario.reference.file is not None:
+        file = Path(scenario.reference.file)
+        resolved = file if file.is_absolute() else (Path(base_dir) / file).resolve()
+        if not resolved.is_file():
+            raise ScenarioError(
+                [f"[reference].file = {_fmt_value(str(file))}: file not found ({resolved})"], source
+            )
+        scenario.reference = Reference(file=resolved)
+    return scenario
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario TOML file; raises :class:`ScenarioError` on bad input."""
+    path = Path(path)
+    with path.open("rb") as f:
+        try:
+            data = tomllib.load(f)
+        except tomllib.TOMLDecodeError as exc:
+            raise ScenarioError([f"invalid TOML: {exc}"], str(path)) from None
+    return scenario_from_dict(data, base_dir=path.parent, source=str(path))
+
+
+def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
+    """The scenario as a TOML-shaped dict: soil flat with all material parameters, None values omitted."""
+    data = scenario.model_dump(mode="json", exclude_none=True)
+    material = scenario.soil.material.model_dump(mode="json", exclude_none=True)
+    soil: dict[str, Any] = {"model": material.pop("model"), **material}
+    soil["layers"] = [layer.model_dump(mode="json", exclude_none=True) for layer in scenario.soil.layers]
+    data["soil"] = soil
+    return data
+
+
+def dump_scenario(scenario: Scenario) -> str:
+    """TOML text of the resolved scenario; ``scenario_from_dict(tomllib.loads(text)) == scenario``."""
+    data = scenario_to_dict(scenario)
+    parts = [f"# geocel scenario {scenario.name!r}: resolved parameters (SI units, angles in degrees)\n"]
+    tables = {k: v for k, v in data.items() if isinstance(v, dict)}
+    parts.append(tomli_w.dumps({k: v for k, v in data.items() if k not in tables}))
+    for key, table in tables.items():
+        if key == "soil":  # always [[soil.layers]] (tomli_w would inline short arrays of tables)
+            layers = table.pop("layers")
+            parts.append("\n" + tomli_w.dumps({key: table}))
+            parts.extend("\n[[soil.layers]]\n" + tomli_w.dumps(layer) for layer in layers)
+        else:
+            parts.append("\n" + tomli_w.dumps({key: table}))
+    return "".join(parts)

@@ -1,0 +1,1 @@
+"""Eulerian soil domain: Lagrangian phase and remap on the fixed grid."""

@@ -1,0 +1,286 @@
+"""Lagrangian phase of the Eulerian soil step on the fixed, rectangular (tensor-product) grid.
+
+Central-difference scheme (velocities at half steps, stresses at whole steps):
+
+1. :func:`advance_nodes`: nodal forces from the cell stresses σⁿ (one-point integration), the bulk-viscosity
+   pressure and the hourglass forces of the previous cell pass, gravity; v^{n+½} = v^{n−½} + Δt f/m; then the
+   boundary conditions. Gather form (each node sums its ≤ 8 cells), so the parallel loop has no races.
+2. :func:`update_cells`: velocity gradient at the cell centre from v^{n+½}, strain and spin increments,
+   the soil-model update (σ^{n+1}, state), bulk viscosity, hourglass resistance, energies and the stable
+   time step of each cell.
+
+Mixed cells (0 < φ < 1): the soil in a cell takes the cell's strain increment (uniform-strain rule) and its
+stress acts over the soil volume V_s = φV, so the nodal force is −V_s σ·∇N. The void carries no stress.
+For a rectangular cell of size h_x × h_y × h_z the shape-function gradients at the centre are
+∂N_I/∂x = ξ_I/(4h_x) (ξ_I = ±1), and the hourglass base vectors ξη, ηζ, ξζ, ξηζ are orthogonal to every
+linear velocity field, so they need no Flanagan–Belytschko projection.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..materials.hypoplastic import hypoplastic_cell
+from ..materials.kernels import HYPOPLASTIC, update_point
+from ..materials.tensor import KERNEL_OPTIONS
+
+#: a cell whose soil volume fraction is below this carries no stress (void)
+PHI_MIN = 1.0e-3
+#: nodes lighter than this fraction of a full fine cell's nodal mass are held at rest
+MASS_TINY = 1.0e-12
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def node_mass(mass, active, out):
+    """Lumped nodal mass: an eighth of each adjacent active cell's soil mass."""
+    nx, ny, nz = mass.shape
+    for i in prange(nx + 1):
+        for j in range(ny + 1):
+            for k in range(nz + 1):
+                s = 0.0
+                for ci in range(max(i - 1, 0), min(i + 1, nx)):
+                    for cj in range(max(j - 1, 0), min(j + 1, ny)):
+                        if not active[ci, cj]:
+                            continue
+                        for ck in range(max(k - 1, 0), min(k + 1, nz)):
+                            s += mass[ci, cj, ck]
+                out[i, j, k] = 0.125 * s
+
+
+@njit(**KERNEL_OPTIONS)
+def _node_force(i, j, k, hx, hy, hz, active, Vs, stress, q, hg):
+    """Internal (stress − q·I), and hourglass force on node (i, j, k), gathered from its ≤ 8 cells."""
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    nx, ny, nz = Vs.shape
+    for ci in range(max(i - 1, 0), min(i + 1, nx)):
+        xi = 1.0 if ci < i else -1.0
+        for cj in range(max(j - 1, 0), min(j + 1, ny)):
+            if not active[ci, cj]:
+                continue
+            eta = 1.0 if cj < j else -1.0
+            for ck in range(max(k - 1, 0), min(k + 1, nz)):
+                vs = Vs[ci, cj, ck]
+                zeta = 1.0 if ck < k else -1.0
+                gx = xi / (4.0 * hx[ci])
+                gy = eta / (4.0 * hy[cj])
+                gz = zeta / (4.0 * hz[ck])
+                pq = q[ci, cj, ck]
+                sxx = stress[ci, cj, ck, 0] - pq
+                syy = stress[ci, cj, ck, 1] - pq
+                szz = stress[ci, cj, ck, 2] - pq
+                sxy = stress[ci, cj, ck, 3]
+                sxz = stress[ci, cj, ck, 4]
+                syz = stress[ci, cj, ck, 5]
+                fx -= vs * (sxx * gx + sxy * gy + sxz * gz)
+                fy -= vs * (sxy * gx + syy * gy + syz * gz)
+                fz -= vs * (sxz * gx + syz * gy + szz * gz)
+                # hourglass: f_I = −Σ_α Q_α h_αI with h = (ξη, ηζ, ξζ, ξηζ)
+                h1 = xi * eta
+                h2 = eta * zeta
+                h3 = xi * zeta
+                h4 = xi * eta * zeta
+                fx -= h1 * hg[ci, cj, ck, 0, 0] + h2 * hg[ci, cj, ck, 1, 0]
+                fx -= h3 * hg[ci, cj, ck, 2, 0] + h4 * hg[ci, cj, ck, 3, 0]
+                fy -= h1 * hg[ci, cj, ck, 0, 1] + h2 * hg[ci, cj, ck, 1, 1]
+                fy -= h3 * hg[ci, cj, ck, 2, 1] + h4 * hg[ci, cj, ck, 3, 1]
+                fz -= h1 * hg[ci, cj, ck, 0, 2] + h2 * hg[ci, cj, ck, 1, 2]
+                fz -= h3 * hg[ci, cj, ck, 2, 2] + h4 * hg[ci, cj, ck, 3, 2]
+    return fx, fy, fz
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def advance_nodes(hx, hy, hz, active, Vs, stress, q, hg, nmass, v, fix, gravity, dt, mtiny):
+    """v ← v + Δt f/m with internal, viscous, hourglass and gravity forces; boundary conditions.
+
+    Returns (kinetic energy ½Σmv² at n+½, work of gravity over the step)."""
+    nx, ny, nz = Vs.shape
+    ke_i = np.zeros(nx + 1)
+    wg_i = np.zeros(nx + 1)
+    for i in prange(nx + 1):
+        ke = 0.0
+        wg = 0.0
+        for j in range(ny + 1):
+            for k in range(nz + 1):
+                m = nmass[i, j, k]
+                if m <= mtiny:
+                    v[i, j, k, 0] = 0.0
+                    v[i, j, k, 1] = 0.0
+                    v[i, j, k, 2] = 0.0
+                    continue
+                fx, fy, fz = _node_force(i, j, k, hx, hy, hz, active, Vs, stress, q, hg)
+                fz -= m * gravity
+                c = dt / m
+                vx = v[i, j, k, 0] + c * fx
+                vy = v[i, j, k, 1] + c * fy
+                vz = v[i, j, k, 2] + c * fz
+                if fix[i, j, k, 0]:
+                    vx = 0.0
+                if fix[i, j, k, 1]:
+                    vy = 0.0
+                if fix[i, j, k, 2]:
+                    vz = 0.0
+                v[i, j, k, 0] = vx
+                v[i, j, k, 1] = vy
+                v[i, j, k, 2] = vz
+                ke += 0.5 * m * (vx * vx + vy * vy + vz * vz)
+                wg -= m * gravity * vz * dt
+        ke_i[i] = ke
+        wg_i[i] = wg
+    return ke_i.sum(), wg_i.sum()
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def _velocity_gradient(v, i, j, k, hx, hy, hz, L, qh):
+    """L_ab = Σ_I v_a,I ∂N_I/∂x_b at the centre of cell (i, j, k), and the 4×3 hourglass mode amplitudes
+    (written into the caller's buffers L and qh)."""
+    L[:] = 0.0
+    qh[:] = 0.0
+    for a in range(2):
+        xi = 2.0 * a - 1.0
+        for b in range(2):
+            eta = 2.0 * b - 1.0
+            for c in range(2):
+                zeta = 2.0 * c - 1.0
+                g0 = xi / (4.0 * hx)
+                g1 = eta / (4.0 * hy)
+                g2 = zeta / (4.0 * hz)
+                h1 = xi * eta
+                h2 = eta * zeta
+                h3 = xi * zeta
+                h4 = xi * eta * zeta
+                for d in range(3):
+                    vd = v[i + a, j + b, k + c, d]
+                    L[d, 0] += vd * g0
+                    L[d, 1] += vd * g1
+                    L[d, 2] += vd * g2
+                    qh[0, d] += h1 * vd
+                    qh[1, d] += h2 * vd
+                    qh[2, d] += h3 * vd
+                    qh[3, d] += h4 * vd
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def update_cells(
+    model, prm, hx, hy, hz, active, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa
+):
+    """Constitutive update of every soil cell with the strain and spin increments of v^{n+½}.
+
+    Also computes the bulk-viscosity pressure q and hourglass forces for the next nodal pass, and returns
+    (stable Δt of the cells, internal-energy increment ∫σ:D dV dt, viscous and hourglass dissipation,
+    index of the cell governing Δt). Cells below :data:`PHI_MIN` are set stress-free.
+    """
+    nx, ny, nz = Vs.shape
+    n = nx * ny * nz
+    s2 = stress.reshape((n, 6))
+    st2 = state.reshape((n, state.shape[3]))
+    nchunk = min(nx, 64)
+    dts = np.full(nchunk, np.inf)
+    args = np.zeros(nchunk, dtype=np.int64)
+    energies = np.zeros((nchunk, 3))
+    for ch in prange(nchunk):
+        e_int = 0.0
+        e_visc = 0.0
+        e_hg = 0.0
+        dbuf = np.empty(6)
+        wbuf = np.empty(3)
+        work = np.empty(128)
+        L = np.empty((3, 3))
+        qh = np.empty((4, 3))
+        best = np.inf
+        best_c = -1
+        for i in range(ch * nx // nchunk, (ch + 1) * nx // nchunk):
+            for j in range(ny):
+                if not active[i, j]:
+                    continue
+                for k in range(nz):
+                    c = (i * ny + j) * nz + k
+                    vol = hx[i] * hy[j] * hz[k]
+                    vs = Vs[i, j, k]
+                    if vs < PHI_MIN * vol:
+                        for d in range(6):
+                            stress[i, j, k, d] = 0.0
+                        q[i, j, k] = 0.0
+                        for a in range(4):
+                            for d in range(3):
+                                hg[i, j, k, a, d] = 0.0
+                        flags[i, j, k] = 0
+                        continue
+                    _velocity_gradient(v, i, j, k, hx[i], hy[j], hz[k], L, qh)
+                    D = (
+                        L[0, 0] * dt,
+                        L[1, 1] * dt,
+                        L[2, 2] * dt,
+                        0.5 * (L[0, 1] + L[1, 0]) * dt,
+                        0.5 * (L[0, 2] + L[2, 0]) * dt,
+                        0.5 * (L[1, 2] + L[2, 1]) * dt,
+                    )
+                    w12 = 0.5 * (L[0, 1] - L[1, 0]) * dt
+                    w13 = 0.5 * (L[0, 2] - L[2, 0]) * dt
+                    w23 = 0.5 * (L[1, 2] - L[2, 1]) * dt
+                    o0 = s2[c, 0]
+                    o1 = s2[c, 1]
+                    o2 = s2[c, 2]
+                    o3 = s2[c, 3]
+                    o4 = s2[c, 4]
+                    o5 = s2[c, 5]
+                    if model == HYPOPLASTIC:
+                        M, f = hypoplastic_cell(prm, s2, st2, c, D, w12, w13, w23, 1)
+                    else:
+                        for d in range(6):
+                            dbuf[d] = D[d]
+                        wbuf[0] = w12
+                        wbuf[1] = w13
+                        wbuf[2] = w23
+                        M, f = update_point(model, prm, s2[c], st2[c], dbuf, wbuf, 0.0, 1, work)
+                    flags[i, j, k] = f
+                    modulus[i, j, k] = M
+                    # ∫σ:D dV over the step with the mid-step stress (trapezoidal)
+                    e_int += (
+                        0.5
+                        * vs
+                        * (
+                            (o0 + s2[c, 0]) * D[0]
+                            + (o1 + s2[c, 1]) * D[1]
+                            + (o2 + s2[c, 2]) * D[2]
+                            + 2.0 * ((o3 + s2[c, 3]) * D[3] + (o4 + s2[c, 4]) * D[4] + (o5 + s2[c, 5]) * D[5])
+                        )
+                    )
+                    rho = mass[i, j, k] / vs
+                    cd = np.sqrt(M / rho)
+                    le = min(hx[i], min(hy[j], hz[k]))
+                    # bulk viscosity (Abaqus-type): linear always, quadratic in compression
+                    tr = L[0, 0] + L[1, 1] + L[2, 2]
+                    e_visc += q[i, j, k] * (-tr * dt) * vs
+                    qn = -b1 * rho * cd * le * tr
+                    if tr < 0.0:
+                        qn += rho * (b2 * le * tr) ** 2
+                    q[i, j, k] = qn
+                    # viscous hourglass control: Q_α = κ ρ_eff c V^{2/3} / 8 · q_α
+                    chg = kappa * (mass[i, j, k] / vol) * cd * vol ** (2.0 / 3.0) / 8.0
+                    for a in range(4):
+                        for d in range(3):
+                            e_hg += hg[i, j, k, a, d] * qh[a, d] * dt
+                            hg[i, j, k, a, d] = chg * qh[a, d]
+                    # stable step of this cell, with the viscosity correction of the explicit scheme
+                    vmax = np.sqrt(L[0, 0] ** 2 + L[1, 1] ** 2 + L[2, 2] ** 2) * le
+                    xi_b = b1 - b2 * b2 * le * min(tr, 0.0) / max(cd, 1e-30)
+                    dtc = le / (cd * (np.sqrt(1.0 + xi_b * xi_b) - xi_b) + vmax)
+                    if dtc < best:
+                        best = dtc
+                        best_c = c
+        dts[ch] = best
+        args[ch] = best_c
+        energies[ch, 0] = e_int
+        energies[ch, 1] = e_visc
+        energies[ch, 2] = e_hg
+    dt_min = np.inf
+    arg = -1
+    for ch in range(nchunk):
+        if dts[ch] < dt_min:
+            dt_min = dts[ch]
+            arg = args[ch]
+    tot = energies.sum(axis=0)
+    return dt_min, tot[0], tot[1], tot[2], arg

@@ -1,0 +1,1 @@
+"""Time loop, stable time step, energies, Mass-Gravity-Scaling and geostatic state."""

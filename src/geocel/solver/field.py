@@ -1,0 +1,346 @@
+"""The Eulerian soil field: arrays, geostatic initial state, Mass-Gravity-Scaling and one explicit step.
+
+Mass-Gravity-Scaling with factor S (applied here, once): the soil density is multiplied by S and gravity
+divided by S, so ρg — and with it the geostatic stress — is unchanged while wave speeds drop by √S and the
+stable time step grows by √S. For a rate-independent soil the scheme is exactly invariant: with
+Δt_S = √S Δt₁ every step moves the soil by the same displacement increment (the bulk viscosity and the
+hourglass forces scale the same way), so S only stretches the time axis by √S.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit, prange
+
+from ..config.materials import Elastic, Hypoplastic, MohrCoulomb
+from ..euler.lagrange import PHI_MIN, advance_nodes, node_mass, update_cells
+from ..euler.remap import remap
+from ..grid import Grid
+from ..materials.kernels import update_cells as material_update_cells
+from ..materials.tensor import KERNEL_OPTIONS
+
+Material = Elastic | MohrCoulomb | Hypoplastic
+
+ENERGY_KEYS = (
+    "kinetic",
+    "internal",
+    "viscous",
+    "hourglass",
+    "gravity_work",
+    "external_work",
+    "remap_kinetic_loss",
+)
+
+
+class InstabilityError(RuntimeError):
+    """The explicit integration became unstable; ``diagnostic`` says where, when and which quantity."""
+
+    def __init__(self, message: str, diagnostic: dict):
+        super().__init__(message)
+        self.diagnostic = diagnostic
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def _void_ratio_from_density(active, Vs, mass, state, grain_density, hx, hy, hz):
+    """e = ρ_s V_s / m − 1 for every soil cell (e follows the conserved mass and soil volume)."""
+    nx, ny, nz = Vs.shape
+    for i in prange(nx):
+        for j in range(ny):
+            if not active[i, j]:
+                continue
+            for k in range(nz):
+                if Vs[i, j, k] > PHI_MIN * hx[i] * hy[j] * hz[k] and mass[i, j, k] > 0.0:
+                    state[i, j, k, 0] = grain_density * Vs[i, j, k] / mass[i, j, k] - 1.0
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def _kinetic_energy(nmass, v):
+    nx, ny, nz = nmass.shape
+    ke = np.zeros(nx)
+    for i in prange(nx):
+        s = 0.0
+        for j in range(ny):
+            for k in range(nz):
+                s += 0.5 * nmass[i, j, k] * (v[i, j, k, 0] ** 2 + v[i, j, k, 1] ** 2 + v[i, j, k, 2] ** 2)
+        ke[i] = s
+    return ke.sum()
+
+
+@dataclass
+class SolverSettings:
+    """Numerical settings (defaults as in Abaqus/Explicit where a counterpart exists)."""
+
+    safety_factor: float = 0.9
+    hourglass: float = 0.05  # κ of the viscous hourglass control
+    bulk_viscosity_linear: float = 0.06
+    bulk_viscosity_quadratic: float = 1.2
+    gravity: float = 9.81  # m/s², before scaling
+    dt_growth: float = 1.2  # largest ratio of consecutive time steps
+
+
+@dataclass
+class SoilField:
+    grid: Grid
+    material: Material
+    scaling: float = 1.0
+    settings: SolverSettings = field(default_factory=SolverSettings)
+
+    def __post_init__(self) -> None:
+        g = self.grid
+        if self.scaling < 1.0:
+            raise ValueError(f"mass_gravity = {self.scaling} must be ≥ 1")
+        self.model_id = self.material.model_id
+        self.prm = self.material.to_array()
+        self.gravity = self.settings.gravity / self.scaling
+        self.grain_density = self.material.grain_density * self.scaling
+        shape = g.shape
+        nshape = (g.nx + 1, g.ny + 1, g.nz + 1)
+        nstate = len(self.material.state_names)
+        self.hx, self.hy, self.hz = g.hx, g.hy, g.hz
+        self.volume = g.cell_volumes()
+        self.active2d = g.active2d
+        self.active3 = np.ascontiguousarray(g.active)
+        self.Vs = np.zeros(shape)
+        self.Vcur = self.volume.copy()
+        self.mass = np.zeros(shape)
+        self.stress = np.zeros(shape + (6,))
+        self.state = np.zeros(shape + (nstate,))
+        self.q = np.zeros(shape)
+        self.hg = np.zeros(shape + (4, 3))
+        self.modulus = np.zeros(shape)
+        self.flags = np.zeros(shape, dtype=np.int64)
+        self.fbar = np.zeros(shape)
+        self.v = np.zeros(nshape + (3,))
+        self.nmass = np.zeros(nshape)
+        self.fix = g.node_constraints()
+        self.time = 0.0
+        self.step_count = 0
+        self.dt = 0.0
+        self.dt_critical = np.inf
+        self.governing_cell = -1
+        self.energy = dict.fromkeys(ENERGY_KEYS, 0.0)
+        self.lost_mass = 0.0
+        self.capped_volume = 0.0
+        self.mass_tiny = 0.0
+        self.initial_mass = 0.0
+        self.rule_counts: dict[str, int] = {}
+
+    # --- initial state ------------------------------------------------------------------------------------------
+    def fill_below(self, surface: float = 0.0) -> None:
+        """Soil in every active cell below z = ``surface`` (cells cut by it are partially filled)."""
+        z = self.grid.z
+        frac = np.clip((surface - z[:-1]) / self.hz, 0.0, 1.0)
+        self.Vs[...] = self.volume * frac[None, None, :] * self.active3
+
+    def geostatic(
+        self, layers: list[tuple[float, float]], k0: float, intergranular: str = "vertical"
+    ) -> None:
+        """Void ratio per layer ``(top below surface, e0)`` (surface z = 0), densities, and the geostatic stress in
+        discrete equilibrium with the lumped nodal gravity forces, so the soil is at rest from the first step.
+
+        Per column the nodal balance gives φ_b σ_zz,b = φ_a σ_zz,a − g (μ_a + μ_b)/2 between the cell a above
+        and b below a node (μ = ρ φ h_z, mass per unit area); σ_xx = σ_yy = K0 σ_zz."""
+        if not layers or layers[0][0] != 0.0:
+            raise ValueError("the first layer must start at the surface (top = 0)")
+        g = self.grid
+        depth = -g.zc
+        e0 = np.full(g.nz, layers[0][1])
+        for top, e in layers:
+            e0[depth >= top] = e
+        phi = self.Vs / self.volume
+        rho = self.grain_density / (1.0 + e0)  # scaled dry density of the soil in each cell
+        self.mass[...] = rho[None, None, :] * self.Vs
+        mu = rho[None, None, :] * phi * self.hz[None, None, :]  # mass per unit area, (nx, ny, nz)
+        szz = np.zeros_like(self.Vs)
+        s = np.zeros((g.nx, g.ny))
+        mu_above = np.zeros((g.nx, g.ny))
+        for k in range(g.nz - 1, -1, -1):
+            s = s - self.gravity * 0.5 * (mu_above + mu[:, :, k])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                szz[:, :, k] = np.where(phi[:, :, k] >= PHI_MIN, s / np.maximum(phi[:, :, k], 1e-300), 0.0)
+            mu_above = mu[:, :, k]
+        szz *= self.active3
+        self.stress[...] = 0.0
+        self.stress[..., 0] = k0 * szz
+        self.stress[..., 1] = k0 * szz
+        self.stress[..., 2] = szz
+        state0 = self.material.initial_state(float(layers[0][1]), intergranular)
+        self.state[...] = state0
+        self.state[..., 0] = e0[None, None, :]
+        node_mass(self.mass, self.active2d, self.nmass)
+        full_node = float(rho.max() * self.volume[self.active3].min())
+        self.mass_tiny = 1e-9 * full_node
+        self.initial_mass = float(self.mass.sum())
+        self.dt = self.settings.safety_factor * self.stable_time_step()
+
+    def stable_time_step(self) -> float:
+        """Critical step min L_e/c over the soil cells, with c = √(M/ρ) from the current material stiffness."""
+        soil = self.active3 & (self.Vs > PHI_MIN * self.volume)
+        if not soil.any():
+            return np.inf
+        n = int(soil.sum())
+        s = self.stress[soil].copy()
+        st = self.state[soil].copy()
+        M = np.empty(n)
+        f = np.empty(n, dtype=np.int64)
+        material_update_cells(self.model_id, self.prm, s, st, np.zeros((n, 6)), np.zeros((n, 3)), 0.0, M, f)
+        rho = self.mass[soil] / self.Vs[soil]
+        le = np.minimum(np.minimum(self.hx[:, None, None], self.hy[None, :, None]), self.hz[None, None, :])
+        le = np.broadcast_to(le, self.Vs.shape)[soil]
+        dtc = le / np.sqrt(M / rho)
+        self.governing_cell = int(np.flatnonzero(soil.ravel())[np.argmin(dtc)])
+        self.dt_critical = float(dtc.min())
+        return self.dt_critical
+
+    # --- the explicit step ----------------------------------------------------------------------------------
+    def step(self, dt: float | None = None, parity: int | None = None) -> None:
+        """One explicit step: Lagrangian phase then remap. Raises :class:`InstabilityError` on NaN."""
+        st = self.settings
+        dt = self.dt if dt is None else dt
+        ke, wg = advance_nodes(
+            self.hx,
+            self.hy,
+            self.hz,
+            self.active2d,
+            self.Vs,
+            self.stress,
+            self.q,
+            self.hg,
+            self.nmass,
+            self.v,
+            self.fix,
+            self.gravity,
+            dt,
+            self.mass_tiny,
+        )
+        dtc, dEi, dEv, dEh, arg = update_cells(
+            self.model_id,
+            self.prm,
+            self.hx,
+            self.hy,
+            self.hz,
+            self.active2d,
+            self.Vs,
+            self.mass,
+            self.stress,
+            self.state,
+            self.v,
+            self.q,
+            self.hg,
+            self.modulus,
+            self.flags,
+            dt,
+            st.bulk_viscosity_linear,
+            st.bulk_viscosity_quadratic,
+            st.hourglass,
+        )
+        if not (np.isfinite(ke) and np.isfinite(dEi)):
+            raise InstabilityError(*self._diagnose(dt))
+        lost, capped = remap(
+            self.hx,
+            self.hy,
+            self.hz,
+            self.active2d,
+            self.active3,
+            self.v,
+            dt,
+            self.Vs,
+            self.Vcur,
+            self.mass,
+            self.stress,
+            self.state,
+            self.nmass,
+            self.fbar,
+            self.step_count if parity is None else parity,
+            self.mass_tiny,
+        )
+        ke_after = _kinetic_energy(self.nmass, self.v)
+        _void_ratio_from_density(
+            self.active2d, self.Vs, self.mass, self.state, self.grain_density, self.hx, self.hy, self.hz
+        )
+        e = self.energy
+        e["kinetic"] = ke_after
+        e["internal"] += dEi
+        e["viscous"] += dEv
+        e["hourglass"] += dEh
+        e["gravity_work"] += wg
+        e["external_work"] += wg
+        e["remap_kinetic_loss"] += ke - ke_after
+        self.lost_mass += lost
+        self.capped_volume += capped
+        self.time += dt
+        self.step_count += 1
+        self.dt_critical = dtc
+        self.governing_cell = arg
+        if np.isfinite(dtc):
+            self.dt = min(st.safety_factor * dtc, st.dt_growth * dt)
+
+    def _diagnose(self, dt: float) -> tuple[str, dict]:
+        g = self.grid
+        diag: dict = {"step": self.step_count, "time": self.time, "dt": dt}
+        for name, arr in (("stress", self.stress), ("velocity", self.v)):
+            bad = ~np.isfinite(arr)
+            if bad.any():
+                idx = np.argwhere(bad)[0]
+                i, j, k = (int(t) for t in idx[:3])
+                if name == "stress":
+                    where = (float(g.xc[i]), float(g.yc[j]), float(g.zc[k]))
+                else:
+                    where = (float(g.x[i]), float(g.y[j]), float(g.z[k]))
+                diag.update(quantity=name, index=[i, j, k], position_m=where)
+                break
+        msg = (
+            f"instability at step {self.step_count} (t = {self.time:.6g} s, Δt = {dt:.3g} s): non-finite "
+            f"{diag.get('quantity', 'energy')} at {diag.get('position_m', '?')}"
+        )
+        return msg, diag
+
+    # --- diagnostics ------------------------------------------------------------------------------------------
+    def energy_balance_error(self) -> float:
+        """KE + internal + dissipation − external work − (kinetic energy removed by the remap), J."""
+        e = self.energy
+        return (
+            e["kinetic"]
+            + e["internal"]
+            + e["viscous"]
+            + e["hourglass"]
+            + e["remap_kinetic_loss"]
+            - e["external_work"]
+        )
+
+    def soil_mass(self) -> float:
+        return float(self.mass[self.active3].sum())
+
+    def mass_error(self) -> float:
+        """Relative change of soil mass, counting mass that left through the top as kept."""
+        if self.initial_mass == 0:
+            return 0.0
+        return (self.soil_mass() + self.lost_mass - self.initial_mass) / self.initial_mass
+
+    def governing_cell_position(self) -> tuple[float, float, float] | None:
+        if self.governing_cell < 0:
+            return None
+        i, j, k = np.unravel_index(self.governing_cell, self.grid.shape)
+        return float(self.grid.xc[i]), float(self.grid.yc[j]), float(self.grid.zc[k])
+
+    def cell_fields(self) -> dict[str, np.ndarray]:
+        """Cell data for output: φ, stress, p, q, e, ρ (intergranular ratio), velocity, density."""
+        from ..materials.tensor import invariants_pq
+
+        phi = self.Vs / self.volume
+        p, qd = invariants_pq(self.stress)
+        out = {
+            "phi": phi,
+            "stress": self.stress,
+            "p": p,
+            "q": qd,
+            "e": np.where(phi > PHI_MIN, self.state[..., 0], np.nan),
+            "density": np.where(phi > PHI_MIN, self.mass / np.maximum(self.Vs, 1e-300) / self.scaling, 0.0),
+        }
+        if isinstance(self.material, Hypoplastic) and self.material.intergranular_strain:
+            d = self.state[..., 1:7]
+            nd = np.sqrt(np.sum(d[..., :3] ** 2, axis=-1) + 2 * np.sum(d[..., 3:] ** 2, axis=-1))
+            out["rho"] = nd / self.material.R
+        return out
