@@ -174,6 +174,44 @@ def demo(
 
 
 @app.command()
+def run(
+    scenario_file: Annotated[Path, typer.Argument(help="scenario TOML file")],
+    out: Annotated[
+        Path | None, typer.Option(help="run directory (default: [output] directory or runs/NAME)")
+    ] = None,
+    restart: Annotated[bool, typer.Option(help="continue from the run directory's checkpoint")] = False,
+    duration: Annotated[
+        float | None, typer.Option(help="simulated time, s (overrides [loading] duration)")
+    ] = None,
+    no_fields: Annotated[bool, typer.Option(help="skip the VTK field snapshots")] = False,
+) -> None:
+    """Run a scenario; writes config.toml, history.csv, fields/*.vtr + fields.pvd, summary.json."""
+    from .config.scenario import load_scenario
+    from .solver.simulation import Simulation
+
+    try:
+        sc = load_scenario(scenario_file)
+        sim = Simulation(sc, out=out, duration=duration, write_fields=not no_fields)
+    except (ValueError, OSError, NotImplementedError) as err:
+        console.print(f"[red]error:[/red] {escape(str(err))}")
+        raise typer.Exit(2) from err
+    field_grid = sim.run_dir.root
+    console.print(f"run directory: {field_grid}")
+    summary = sim.run(restart=restart)
+    console.print(
+        f"status [bold]{summary['status']}[/bold]: {summary['steps']} steps, t = {summary['time']:.4g} s, "
+        f"wall {summary['wall_time']:.1f} s; Δt governed by the soil cell at {summary['dt_governing_element']['position_m']}"
+    )
+    console.print(
+        f"soil mass error {summary['soil_mass_error']:.2e}, max KE/IE {summary['max_energy_ratio']:.3g}, "
+        f"energy balance error {summary['energy_balance_error']:.3g} J of {summary['external_work']:.3g} J external work"
+    )
+    if summary["status"] == "unstable":
+        console.print(f"[red]unstable:[/red] {escape(str(summary['diagnostic']))}")
+        raise typer.Exit(1)
+
+
+@app.command()
 def presets() -> None:
     """List the named material parameter sets."""
     from .config.materials import PRESETS

@@ -31,6 +31,14 @@ PHI_MIN = 1.0e-3
 MASS_TINY = 1.0e-12
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def characteristic_length(hx, hy, hz):
+    """L_e = 1/√(h_x⁻² + h_y⁻² + h_z⁻²): with it, Δt = L_e/c is the Flanagan–Belytschko bound of the
+    uniform-strain hexahedron with lumped mass (a cube: h/√3; the exact single-cube limit for ν = 0.3 is
+    0.73 h/c, so the bound is safe for every stiffness split)."""
+    return 1.0 / np.sqrt(1.0 / (hx * hx) + 1.0 / (hy * hy) + 1.0 / (hz * hz))
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
 def node_mass(mass, active, out):
     """Lumped nodal mass: an eighth of each adjacent active cell's soil mass."""
@@ -50,10 +58,18 @@ def node_mass(mass, active, out):
 
 @njit(**KERNEL_OPTIONS)
 def _node_force(i, j, k, hx, hy, hz, active, Vs, stress, q, hg):
-    """Internal (stress − q·I), and hourglass force on node (i, j, k), gathered from its ≤ 8 cells."""
+    """Stress, bulk-viscosity and hourglass forces on node (i, j, k), gathered from its ≤ 8 cells.
+
+    Returns (f_σ, f_q, f_hg) as three 3-tuples."""
     fx = 0.0
     fy = 0.0
     fz = 0.0
+    px = 0.0
+    py = 0.0
+    pz = 0.0
+    hx_ = 0.0
+    hy_ = 0.0
+    hz_ = 0.0
     nx, ny, nz = Vs.shape
     for ci in range(max(i - 1, 0), min(i + 1, nx)):
         xi = 1.0 if ci < i else -1.0
@@ -68,9 +84,12 @@ def _node_force(i, j, k, hx, hy, hz, active, Vs, stress, q, hg):
                 gy = eta / (4.0 * hy[cj])
                 gz = zeta / (4.0 * hz[ck])
                 pq = q[ci, cj, ck]
-                sxx = stress[ci, cj, ck, 0] - pq
-                syy = stress[ci, cj, ck, 1] - pq
-                szz = stress[ci, cj, ck, 2] - pq
+                px += vs * pq * gx
+                py += vs * pq * gy
+                pz += vs * pq * gz
+                sxx = stress[ci, cj, ck, 0]
+                syy = stress[ci, cj, ck, 1]
+                szz = stress[ci, cj, ck, 2]
                 sxy = stress[ci, cj, ck, 3]
                 sxz = stress[ci, cj, ck, 4]
                 syz = stress[ci, cj, ck, 5]
@@ -82,25 +101,30 @@ def _node_force(i, j, k, hx, hy, hz, active, Vs, stress, q, hg):
                 h2 = eta * zeta
                 h3 = xi * zeta
                 h4 = xi * eta * zeta
-                fx -= h1 * hg[ci, cj, ck, 0, 0] + h2 * hg[ci, cj, ck, 1, 0]
-                fx -= h3 * hg[ci, cj, ck, 2, 0] + h4 * hg[ci, cj, ck, 3, 0]
-                fy -= h1 * hg[ci, cj, ck, 0, 1] + h2 * hg[ci, cj, ck, 1, 1]
-                fy -= h3 * hg[ci, cj, ck, 2, 1] + h4 * hg[ci, cj, ck, 3, 1]
-                fz -= h1 * hg[ci, cj, ck, 0, 2] + h2 * hg[ci, cj, ck, 1, 2]
-                fz -= h3 * hg[ci, cj, ck, 2, 2] + h4 * hg[ci, cj, ck, 3, 2]
-    return fx, fy, fz
+                hx_ -= h1 * hg[ci, cj, ck, 0, 0] + h2 * hg[ci, cj, ck, 1, 0]
+                hx_ -= h3 * hg[ci, cj, ck, 2, 0] + h4 * hg[ci, cj, ck, 3, 0]
+                hy_ -= h1 * hg[ci, cj, ck, 0, 1] + h2 * hg[ci, cj, ck, 1, 1]
+                hy_ -= h3 * hg[ci, cj, ck, 2, 1] + h4 * hg[ci, cj, ck, 3, 1]
+                hz_ -= h1 * hg[ci, cj, ck, 0, 2] + h2 * hg[ci, cj, ck, 1, 2]
+                hz_ -= h3 * hg[ci, cj, ck, 2, 2] + h4 * hg[ci, cj, ck, 3, 2]
+    return (fx, fy, fz), (px, py, pz), (hx_, hy_, hz_)
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
 def advance_nodes(hx, hy, hz, active, Vs, stress, q, hg, nmass, v, fix, gravity, dt, mtiny):
-    """v ← v + Δt f/m with internal, viscous, hourglass and gravity forces; boundary conditions.
+    """v ← v + Δt f/m with stress, viscous, hourglass and gravity forces; boundary conditions.
 
-    Returns (kinetic energy ½Σmv² at n+½, work of gravity over the step)."""
+    Energy accounting consistent with the central-difference scheme: the work of every force fⁿ over the
+    step uses the mean velocity v̄ = (v^{n−½} + v^{n+½})/2, and the kinetic energy is ½ m v̄².
+    Returns (kinetic energy at n, work of the stresses = internal-energy increment, viscous and hourglass
+    dissipation, work of gravity)."""
     nx, ny, nz = Vs.shape
-    ke_i = np.zeros(nx + 1)
-    wg_i = np.zeros(nx + 1)
+    acc = np.zeros((nx + 1, 5))
     for i in prange(nx + 1):
         ke = 0.0
+        wi = 0.0
+        wv = 0.0
+        wh = 0.0
         wg = 0.0
         for j in range(ny + 1):
             for k in range(nz + 1):
@@ -110,12 +134,18 @@ def advance_nodes(hx, hy, hz, active, Vs, stress, q, hg, nmass, v, fix, gravity,
                     v[i, j, k, 1] = 0.0
                     v[i, j, k, 2] = 0.0
                     continue
-                fx, fy, fz = _node_force(i, j, k, hx, hy, hz, active, Vs, stress, q, hg)
-                fz -= m * gravity
+                fs, fq, fh = _node_force(i, j, k, hx, hy, hz, active, Vs, stress, q, hg)
+                fgz = -m * gravity
+                fx = fs[0] + fq[0] + fh[0]
+                fy = fs[1] + fq[1] + fh[1]
+                fz = fs[2] + fq[2] + fh[2] + fgz
                 c = dt / m
-                vx = v[i, j, k, 0] + c * fx
-                vy = v[i, j, k, 1] + c * fy
-                vz = v[i, j, k, 2] + c * fz
+                ox = v[i, j, k, 0]
+                oy = v[i, j, k, 1]
+                oz = v[i, j, k, 2]
+                vx = ox + c * fx
+                vy = oy + c * fy
+                vz = oz + c * fz
                 if fix[i, j, k, 0]:
                     vx = 0.0
                 if fix[i, j, k, 1]:
@@ -125,11 +155,21 @@ def advance_nodes(hx, hy, hz, active, Vs, stress, q, hg, nmass, v, fix, gravity,
                 v[i, j, k, 0] = vx
                 v[i, j, k, 1] = vy
                 v[i, j, k, 2] = vz
-                ke += 0.5 * m * (vx * vx + vy * vy + vz * vz)
-                wg -= m * gravity * vz * dt
-        ke_i[i] = ke
-        wg_i[i] = wg
-    return ke_i.sum(), wg_i.sum()
+                mx = 0.5 * (ox + vx)
+                my = 0.5 * (oy + vy)
+                mz = 0.5 * (oz + vz)
+                ke += 0.5 * m * (mx * mx + my * my + mz * mz)
+                wi -= (fs[0] * mx + fs[1] * my + fs[2] * mz) * dt
+                wv -= (fq[0] * mx + fq[1] * my + fq[2] * mz) * dt
+                wh -= (fh[0] * mx + fh[1] * my + fh[2] * mz) * dt
+                wg += fgz * mz * dt
+        acc[i, 0] = ke
+        acc[i, 1] = wi
+        acc[i, 2] = wv
+        acc[i, 3] = wh
+        acc[i, 4] = wg
+    t = acc.sum(axis=0)
+    return t[0], t[1], t[2], t[3], t[4]
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
@@ -169,8 +209,8 @@ def update_cells(
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½}.
 
     Also computes the bulk-viscosity pressure q and hourglass forces for the next nodal pass, and returns
-    (stable Δt of the cells, internal-energy increment ∫σ:D dV dt, viscous and hourglass dissipation,
-    index of the cell governing Δt). Cells below :data:`PHI_MIN` are set stress-free.
+    (stable Δt of the cells, index of the cell governing Δt). Cells below :data:`PHI_MIN` are set
+    stress-free. (The energies are accounted in :func:`advance_nodes`.)
     """
     nx, ny, nz = Vs.shape
     n = nx * ny * nz
@@ -179,11 +219,7 @@ def update_cells(
     nchunk = min(nx, 64)
     dts = np.full(nchunk, np.inf)
     args = np.zeros(nchunk, dtype=np.int64)
-    energies = np.zeros((nchunk, 3))
     for ch in prange(nchunk):
-        e_int = 0.0
-        e_visc = 0.0
-        e_hg = 0.0
         dbuf = np.empty(6)
         wbuf = np.empty(3)
         work = np.empty(128)
@@ -220,12 +256,6 @@ def update_cells(
                     w12 = 0.5 * (L[0, 1] - L[1, 0]) * dt
                     w13 = 0.5 * (L[0, 2] - L[2, 0]) * dt
                     w23 = 0.5 * (L[1, 2] - L[2, 1]) * dt
-                    o0 = s2[c, 0]
-                    o1 = s2[c, 1]
-                    o2 = s2[c, 2]
-                    o3 = s2[c, 3]
-                    o4 = s2[c, 4]
-                    o5 = s2[c, 5]
                     if model == HYPOPLASTIC:
                         M, f = hypoplastic_cell(prm, s2, st2, c, D, w12, w13, w23, 1)
                     else:
@@ -237,23 +267,11 @@ def update_cells(
                         M, f = update_point(model, prm, s2[c], st2[c], dbuf, wbuf, 0.0, 1, work)
                     flags[i, j, k] = f
                     modulus[i, j, k] = M
-                    # ∫σ:D dV over the step with the mid-step stress (trapezoidal)
-                    e_int += (
-                        0.5
-                        * vs
-                        * (
-                            (o0 + s2[c, 0]) * D[0]
-                            + (o1 + s2[c, 1]) * D[1]
-                            + (o2 + s2[c, 2]) * D[2]
-                            + 2.0 * ((o3 + s2[c, 3]) * D[3] + (o4 + s2[c, 4]) * D[4] + (o5 + s2[c, 5]) * D[5])
-                        )
-                    )
                     rho = mass[i, j, k] / vs
                     cd = np.sqrt(M / rho)
-                    le = min(hx[i], min(hy[j], hz[k]))
+                    le = characteristic_length(hx[i], hy[j], hz[k])
                     # bulk viscosity (Abaqus-type): linear always, quadratic in compression
                     tr = L[0, 0] + L[1, 1] + L[2, 2]
-                    e_visc += q[i, j, k] * (-tr * dt) * vs
                     qn = -b1 * rho * cd * le * tr
                     if tr < 0.0:
                         qn += rho * (b2 * le * tr) ** 2
@@ -262,7 +280,6 @@ def update_cells(
                     chg = kappa * (mass[i, j, k] / vol) * cd * vol ** (2.0 / 3.0) / 8.0
                     for a in range(4):
                         for d in range(3):
-                            e_hg += hg[i, j, k, a, d] * qh[a, d] * dt
                             hg[i, j, k, a, d] = chg * qh[a, d]
                     # stable step of this cell, with the viscosity correction of the explicit scheme
                     vmax = np.sqrt(L[0, 0] ** 2 + L[1, 1] ** 2 + L[2, 2] ** 2) * le
@@ -273,14 +290,10 @@ def update_cells(
                         best_c = c
         dts[ch] = best
         args[ch] = best_c
-        energies[ch, 0] = e_int
-        energies[ch, 1] = e_visc
-        energies[ch, 2] = e_hg
     dt_min = np.inf
     arg = -1
     for ch in range(nchunk):
         if dts[ch] < dt_min:
             dt_min = dts[ch]
             arg = args[ch]
-    tot = energies.sum(axis=0)
-    return dt_min, tot[0], tot[1], tot[2], arg
+    return dt_min, arg

@@ -5,9 +5,9 @@ Directional splitting (x, y, z sweeps; the order alternates every step) with con
 * the volume swept by a face in a sweep is δV = u_f Δt A_f, with u_f the mean normal velocity of its four
   nodes; the cell volume after the Lagrangian phase, V·J with J = 1 + Δt ∇·v, returns to V exactly after
   the three sweeps (the one-point divergence equals the sum of the face fluxes);
-* the soil part of δV uses the donor cell's soil fraction φ = V_s/V_cur reconstructed to second order
-  with the compressive **superbee** limiter (sharp free surface), bounded so that a donor never gives more
-  soil than it holds nor more void than it has; mass, stress·V_s and state·V_s are carried with that soil
+* the soil part of δV follows the donor–acceptor rule of Hirt & Nichols (1981) for a sharp free
+  surface, bounded so that a donor never gives more soil than it holds nor more void than it has;
+  mass, stress·V_s and state·V_s are carried with that soil
   volume, reconstructed per unit soil volume with the **van Leer** limiter (Benson 1992; van Leer 1977);
 * nodal momentum is advected on the dual (node-centred) grid: the mass flux through the dual face at a
   cell centre is the mean of the cell's two face mass fluxes, shared by the cell's four edges. This keeps
@@ -30,22 +30,24 @@ VS_TINY = 1.0e-12  # soil volume fraction below which a cell is treated as empty
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
-def _superbee(a, b):
-    """Superbee-limited slope from the downwind difference a and the upwind difference b."""
-    if a * b <= 0.0:
-        return 0.0
-    s = 1.0 if a > 0.0 else -1.0
-    a = abs(a)
-    b = abs(b)
-    return s * max(min(2.0 * b, a), min(b, 2.0 * a))
-
-
-@njit(inline="always", **KERNEL_OPTIONS)
 def _vanleer(a, b):
     """van Leer-limited slope (harmonic mean)."""
     if a * b <= 0.0:
         return 0.0
     return 2.0 * a * b / (a + b)
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def _transverse_gradient(Vs, Vcur, active3, i, j, k):
+    """Largest difference of the soil fraction across the line through cell (i, j, k) (the two
+    transverse directions of the sweep)."""
+    n1, n2, _ = Vs.shape
+    g = 0.0
+    if 0 < i < n1 - 1 and active3[i - 1, j, k] and active3[i + 1, j, k]:
+        g = abs(Vs[i + 1, j, k] / Vcur[i + 1, j, k] - Vs[i - 1, j, k] / Vcur[i - 1, j, k])
+    if 0 < j < n2 - 1 and active3[i, j - 1, k] and active3[i, j + 1, k]:
+        g = max(g, abs(Vs[i, j + 1, k] / Vcur[i, j + 1, k] - Vs[i, j - 1, k] / Vcur[i, j - 1, k]))
+    return g
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -133,12 +135,14 @@ def sweep_cells(h1, h2, active3, v, comp, dt, Vs, Vcur, mass, stress, state, fba
                 phiD = vsD / vcD
                 phiA = Vs[i, j, Ac] / Vcur[i, j, Ac] if Ac >= 0 else phiD
                 phiU = Vs[i, j, U] / Vcur[i, j, U] if U >= 0 else phiD
-                cour = min(adv / vcD, 1.0)
-                phif = phiD + 0.5 * (1.0 - cour) * _superbee(phiA - phiD, phiD - phiU)
-                phif = min(1.0, max(0.0, phif))
-                dvs = phif * adv
-                dvs = min(dvs, vsD)
-                dvs = max(dvs, adv - (vcD - vsD), 0.0)
+                # Hirt–Nichols donor–acceptor: where the interface crosses the sweep direction the
+                # acceptor's fraction decides (the donor fills or empties completely before material
+                # passes: a sharp front); where it runs along the sweep the donor's fraction is used
+                along = abs(phiA - phiU)
+                across = _transverse_gradient(Vs, Vcur, active3, i, j, D)
+                phiAD = phiA if (Ac >= 0 and along >= across) else phiD
+                cf = max((1.0 - phiAD) * adv - (vcD - vsD), 0.0)
+                dvs = min(phiAD * adv + cf, vsD)
                 if dvs <= 0.0:
                     continue
                 dVs[f] = sgn * dvs
@@ -273,6 +277,8 @@ def remap(
     """Advect everything back to the fixed grid (in place). ``nmass`` holds the nodal masses on entry and
     is updated. Returns (mass lost through the top, soil volume capped)."""
     volume_change(hx, hy, hz, active2d, v, dt, Vs, Vcur)
+    # every cell sweep uses the mesh motion of the Lagrangian phase; the node sweeps advect v itself
+    v_mesh = v.copy()
     lost = 0.0
     capped = 0.0
     h = (hx, hy, hz)
@@ -285,7 +291,7 @@ def remap(
             h[others[0]],
             h[others[1]],
             active3.transpose(p),
-            v.transpose(pc),
+            v_mesh.transpose(pc),
             axis,
             dt,
             Vs.transpose(p),

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..config.materials import Elastic, Hypoplastic, MohrCoulomb
-from ..euler.lagrange import PHI_MIN, advance_nodes, node_mass, update_cells
+from ..euler.lagrange import PHI_MIN, advance_nodes, characteristic_length, node_mass, update_cells
 from ..euler.remap import remap
 from ..grid import Grid
 from ..materials.kernels import update_cells as material_update_cells
@@ -176,7 +176,8 @@ class SoilField:
         self.dt = self.settings.safety_factor * self.stable_time_step()
 
     def stable_time_step(self) -> float:
-        """Critical step min L_e/c over the soil cells, with c = √(M/ρ) from the current material stiffness."""
+        """Critical step min L_e/c over the soil cells, with c = √(M/ρ) from the current material stiffness
+        and L_e the hexahedron's characteristic length (:func:`characteristic_length`)."""
         soil = self.active3 & (self.Vs > PHI_MIN * self.volume)
         if not soil.any():
             return np.inf
@@ -187,7 +188,7 @@ class SoilField:
         f = np.empty(n, dtype=np.int64)
         material_update_cells(self.model_id, self.prm, s, st, np.zeros((n, 6)), np.zeros((n, 3)), 0.0, M, f)
         rho = self.mass[soil] / self.Vs[soil]
-        le = np.minimum(np.minimum(self.hx[:, None, None], self.hy[None, :, None]), self.hz[None, None, :])
+        le = characteristic_length(self.hx[:, None, None], self.hy[None, :, None], self.hz[None, None, :])
         le = np.broadcast_to(le, self.Vs.shape)[soil]
         dtc = le / np.sqrt(M / rho)
         self.governing_cell = int(np.flatnonzero(soil.ravel())[np.argmin(dtc)])
@@ -199,7 +200,7 @@ class SoilField:
         """One explicit step: Lagrangian phase then remap. Raises :class:`InstabilityError` on NaN."""
         st = self.settings
         dt = self.dt if dt is None else dt
-        ke, wg = advance_nodes(
+        ke, dEi, dEv, dEh, wg = advance_nodes(
             self.hx,
             self.hy,
             self.hz,
@@ -215,7 +216,8 @@ class SoilField:
             dt,
             self.mass_tiny,
         )
-        dtc, dEi, dEv, dEh, arg = update_cells(
+        ke_half = _kinetic_energy(self.nmass, self.v)
+        dtc, arg = update_cells(
             self.model_id,
             self.prm,
             self.hx,
@@ -236,7 +238,7 @@ class SoilField:
             st.bulk_viscosity_quadratic,
             st.hourglass,
         )
-        if not (np.isfinite(ke) and np.isfinite(dEi)):
+        if not (np.isfinite(ke) and np.isfinite(dEi) and np.isfinite(self.stress).all()):
             raise InstabilityError(*self._diagnose(dt))
         lost, capped = remap(
             self.hx,
@@ -261,13 +263,13 @@ class SoilField:
             self.active2d, self.Vs, self.mass, self.state, self.grain_density, self.hx, self.hy, self.hz
         )
         e = self.energy
-        e["kinetic"] = ke_after
+        e["kinetic"] = ke
         e["internal"] += dEi
         e["viscous"] += dEv
         e["hourglass"] += dEh
         e["gravity_work"] += wg
         e["external_work"] += wg
-        e["remap_kinetic_loss"] += ke - ke_after
+        e["remap_kinetic_loss"] += ke_half - ke_after
         self.lost_mass += lost
         self.capped_volume += capped
         self.time += dt

@@ -1,0 +1,318 @@
+"""Eulerian soil solver: analytic, conservation and invariance checks (issue: Eulerian soil solver)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from geocel.config.materials import Elastic, Hypoplastic, MohrCoulomb
+from geocel.config.scenario import scenario_from_dict
+from geocel.euler.lagrange import update_cells
+from geocel.euler.remap import remap
+from geocel.grid import Grid
+from geocel.materials.tensor import invariants_pq, vec_to_mat
+from geocel.solver.field import SoilField, SolverSettings
+from geocel.solver.simulation import Simulation
+
+G = 9.81
+
+
+def column_grid(h=0.2, depth=4.0, void=0.4, n=2):
+    z = np.concatenate(
+        [np.linspace(-depth, 0.0, int(round(depth / h)) + 1), h * np.arange(1, int(round(void / h)) + 1)]
+    )
+    xy = h * np.arange(n + 1)
+    return Grid(xy, xy.copy(), z, symmetry="quarter")
+
+
+@pytest.mark.parametrize("S", [1.0, 100.0])
+def test_geostatic_column_with_free_surface_stays_at_rest(S):
+    grid = column_grid()
+    f = SoilField(grid, Hypoplastic.fraction_e(), scaling=S)
+    f.fill_below(0.0)
+    e0 = 0.62
+    f.geostatic([(0.0, e0)], k0=0.5)
+    while f.time < 1.0:
+        f.step()
+    assert np.abs(f.v).max() < 1e-3
+    full = f.Vs[0, 0] > 0.999 * f.volume[0, 0]
+    depth = -grid.zc[full]
+    rho_d = 2650.0 / (1.0 + e0)  # unscaled: ρg is invariant under MGS
+    sv = f.stress[0, 0, full, 2]
+    np.testing.assert_allclose(sv, -rho_d * G * depth, rtol=5e-3)
+    np.testing.assert_allclose(f.stress[0, 0, full, 0] / sv, 0.5, rtol=1e-2)
+    # the void above carries no stress and stays empty
+    void = grid.zc > 0
+    assert np.all(f.stress[:, :, void] == 0.0) and np.all(f.Vs[:, :, void] < 1e-12 * f.volume[:, :, void])
+    assert abs(f.mass_error()) < 1e-12
+
+
+def test_mgs_initial_stress_identical_and_time_step_grows_with_sqrt_s():
+    grid = column_grid()
+    stresses, dts = [], []
+    for S in (1.0, 10.0, 100.0):
+        f = SoilField(grid, Hypoplastic.fraction_e(), scaling=S)
+        f.fill_below(0.0)
+        f.geostatic([(0.0, 0.62), (2.0, 0.70)], k0=0.5)
+        stresses.append(f.stress.copy())
+        dts.append(f.dt)
+    np.testing.assert_allclose(stresses[1], stresses[0], rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(stresses[2], stresses[0], rtol=1e-12, atol=1e-9)
+    assert dts[1] / dts[0] == pytest.approx(np.sqrt(10.0), rel=1e-2)
+    assert dts[2] / dts[0] == pytest.approx(10.0, rel=1e-2)
+
+
+def _collapse_field(S):
+    """A soil cylinder (r 0.5 m, h 1 m) standing free in a 1.2 m box: it collapses under gravity."""
+    h = 0.1
+    xy = h * np.arange(13)
+    z = np.concatenate([np.linspace(-1.0, 0.0, 11), [0.1, 0.2]])
+    grid = Grid(xy, xy.copy(), z, symmetry="quarter")
+    f = SoilField(grid, MohrCoulomb(youngs_modulus=5e6, poisson_ratio=0.3, friction_angle=30.0), scaling=S)
+    xc, yc = np.meshgrid(grid.xc, grid.yc, indexing="ij")
+    f.fill_below(0.0)
+    f.Vs[np.hypot(xc, yc) > 0.5] = 0.0
+    f.geostatic([(0.0, 0.65)], k0=0.5)
+    return f
+
+
+def _centroid(f):
+    m = f.mass
+    g = f.grid
+    return np.array(
+        [
+            (m.sum(axis=(1, 2)) * g.xc).sum() / m.sum(),
+            (m.sum(axis=(0, 1)) * g.zc).sum() / m.sum(),
+        ]
+    )
+
+
+def test_mgs_collapse_reproduces_the_motion_on_a_stretched_time_axis():
+    f1, f100 = _collapse_field(1.0), _collapse_field(100.0)
+    c0 = _centroid(f1)
+    dt1 = 0.8 * f1.dt
+    for n in range(300):
+        f1.step(dt=dt1)
+        f100.step(dt=10.0 * dt1)
+    d1 = _centroid(f1) - c0
+    d100 = _centroid(f100) - c0
+    assert np.linalg.norm(d1) > 0.01  # it really collapsed (centroid moved > 1 cm)
+    np.testing.assert_allclose(d100, d1, rtol=1e-6, atol=1e-9 * np.linalg.norm(d1))
+    assert f100.time == pytest.approx(10.0 * f1.time, rel=1e-12)
+
+
+def _advect(grid, Vs, v_uniform, dt, nsteps):
+    """Remap only, with a uniform velocity field re-imposed every step (pure kinematic advection)."""
+    shape = grid.shape
+    vol = grid.cell_volumes()
+    mass = 1600.0 * Vs
+    stress = np.zeros(shape + (6,))
+    stress[..., 2] = -1e3 * (Vs / vol)
+    state = np.zeros(shape + (1,))
+    Vcur = vol.copy()
+    nmass = np.zeros((grid.nx + 1, grid.ny + 1, grid.nz + 1))
+    from geocel.euler.lagrange import node_mass
+
+    node_mass(mass, grid.active2d, nmass)
+    v = np.zeros(nmass.shape + (3,))
+    fbar = np.zeros(shape)
+    for step in range(nsteps):
+        v[...] = v_uniform
+        # boundary conditions as in the solver: no normal velocity on the domain faces
+        v[0, :, :, 0] = v[-1, :, :, 0] = 0.0
+        v[:, 0, :, 1] = v[:, -1, :, 1] = 0.0
+        v[:, :, 0, 2] = v[:, :, -1, 2] = 0.0
+        remap(
+            grid.hx,
+            grid.hy,
+            grid.hz,
+            grid.active2d,
+            np.ascontiguousarray(grid.active),
+            v,
+            dt,
+            Vs,
+            Vcur,
+            mass,
+            stress,
+            state,
+            nmass,
+            fbar,
+            step,
+            1e-12,
+        )
+    return Vs, mass, Vcur
+
+
+@pytest.mark.parametrize("direction", [(1.0, 0.0, 0.0), (0.6, 0.0, 0.8)])
+def test_advection_conserves_mass_and_keeps_the_interface_sharp(direction):
+    h = 0.1
+    grid = Grid.uniform((40, 4, 40), h, symmetry="full")
+    vol = grid.cell_volumes()
+    X = grid.xc[:, None, None] + 0 * grid.zc[None, None, :]
+    Z = grid.zc[None, None, :] + 0 * grid.xc[:, None, None]
+    block = (X > 0.5) & (X < 1.5) & (Z > 0.5) & (Z < 1.5)
+    Vs = vol * np.broadcast_to(block, grid.shape)
+    m0 = 1600.0 * Vs.sum()
+    c0 = np.array([(Vs.sum(axis=(1, 2)) * grid.xc).sum(), (Vs.sum(axis=(0, 1)) * grid.zc).sum()]) / Vs.sum()
+    u = 1.0
+    dt = 0.25 * h / u
+    nsteps = 48  # 12 cells along the direction of travel
+    Vs, mass, Vcur = _advect(grid, Vs.copy(), np.array(direction) * u, dt, nsteps)
+    phi = Vs / vol
+    assert abs(mass.sum() - m0) / m0 < 1e-10
+    assert phi.min() >= -1e-14 and phi.max() <= 1.0 + 1e-12
+    np.testing.assert_allclose(Vcur, vol, rtol=1e-12)
+    c = np.array([(Vs.sum(axis=(1, 2)) * grid.xc).sum(), (Vs.sum(axis=(0, 1)) * grid.zc).sum()]) / Vs.sum()
+    travel = nsteps * dt * u * np.array([direction[0], direction[2]])
+    assert np.all(np.abs(c - c0 - travel) < 0.01 * h)
+    # interface width: along the centre line of the block in the travel direction, ≤ 3 mixed cells per front
+    k = int(np.argmin(np.abs(grid.zc - (1.0 + travel[1]))))
+    line = phi[:, 1, k]
+    mixed = (line > 0.01) & (line < 0.99)
+    assert mixed.sum() <= 6  # two fronts
+
+
+def test_rigid_rotation_keeps_the_stress_invariants():
+    grid = Grid.uniform((6, 6, 6), 0.1, origin=(-0.3, -0.3, -0.3), symmetry="full")
+    vol = grid.cell_volumes()
+    shape = grid.shape
+    stress = np.zeros(shape + (6,))
+    stress[...] = np.array([-100e3, -50e3, -30e3, 10e3, -5e3, 8e3])
+    state = np.full(shape + (1,), 0.6)
+    Vs = vol.copy()
+    mass = 1600.0 * vol
+    omega = np.array([0.3, -0.2, 1.0])  # rad/s, about an inclined axis
+    X, Y, Z = np.meshgrid(grid.x, grid.y, grid.z, indexing="ij")
+    v = np.stack(
+        [omega[1] * Z - omega[2] * Y, omega[2] * X - omega[0] * Z, omega[0] * Y - omega[1] * X], axis=-1
+    )
+    mat = Elastic(youngs_modulus=50e6, poisson_ratio=0.3)
+    prm = mat.to_array()
+    q = np.zeros(shape)
+    hg = np.zeros(shape + (4, 3))
+    modulus = np.zeros(shape)
+    flags = np.zeros(shape, dtype=np.int64)
+    s0 = stress[0, 0, 0].copy()
+    p0, q0 = invariants_pq(s0)
+    det0 = np.linalg.det(vec_to_mat(stress[0, 0, 0]))
+    dt = 1e-3
+    for _ in range(1500):  # ≈ 1.6 rad
+        update_cells(
+            mat.model_id,
+            prm,
+            grid.hx,
+            grid.hy,
+            grid.hz,
+            grid.active2d,
+            Vs,
+            mass,
+            stress,
+            state,
+            v,
+            q,
+            hg,
+            modulus,
+            flags,
+            dt,
+            0.06,
+            1.2,
+            0.05,
+        )
+    p, qq = invariants_pq(stress.reshape(-1, 6))
+    dets = np.linalg.det(vec_to_mat(stress.reshape(-1, 6)))
+    np.testing.assert_allclose(p, p0, rtol=1e-6)
+    np.testing.assert_allclose(qq, q0, rtol=1e-6)
+    np.testing.assert_allclose(dets, det0, rtol=1e-6)
+    assert np.abs(stress - s0).max() > 1e4  # the stress did rotate
+
+
+def test_elastic_p_wave_speed():
+    E, nu, e0 = 20e6, 0.25, 0.65
+    mat = Elastic(youngs_modulus=E, poisson_ratio=nu)
+    h = 0.05
+    z = np.linspace(-20.0, 0.0, 401)
+    grid = Grid(np.array([0.0, h]), np.array([0.0, h]), z, symmetry="quarter", active2d=np.ones((1, 1), bool))
+    f = SoilField(grid, mat, settings=SolverSettings(gravity=0.0, bulk_viscosity_linear=0.0))
+    f.fill_below(0.0)
+    f.geostatic([(0.0, e0)], k0=0.5)
+    rho = 2650.0 / (1 + e0)
+    M = E * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
+    c = np.sqrt(M / rho)
+    z0, w = -5.0, 0.4
+    f.v[..., 2] = -1e-4 * np.exp(-(((grid.z - z0) / w) ** 2))[None, None, :]
+
+    def peak_below():
+        vz = f.v[0, 0, :, 2]
+        sel = np.flatnonzero(grid.z < z0 - 1.0)
+        k = sel[np.argmax(np.abs(vz[sel]))]
+        y0, y1, y2 = np.abs(vz[k - 1 : k + 2])
+        return grid.z[k] + 0.5 * h * (y0 - y2) / (y0 - 2 * y1 + y2)
+
+    times, zs = [], []
+    while f.time < 4.0 / c * 2.5:
+        f.step()
+        if f.time > 1.5 / c:
+            times.append(f.time)
+            zs.append(peak_below())
+    speed = -np.polyfit(times, zs, 1)[0]
+    assert speed == pytest.approx(c, rel=0.02)
+
+
+def test_energy_balance_of_an_elastic_column_released_under_gravity():
+    grid = column_grid(h=0.1, depth=2.0, void=0.2, n=2)
+    f = SoilField(grid, Elastic(youngs_modulus=5e6, poisson_ratio=0.3))
+    f.fill_below(0.0)
+    f.geostatic([(0.0, 0.65)], k0=0.5)
+    f.stress[...] = 0.0  # released: not in equilibrium, it compresses and oscillates
+    w_max, ke_max, err_max = 0.0, 0.0, 0.0
+    while f.time < 0.3:
+        f.step()
+        w_max = max(w_max, f.energy["external_work"])
+        ke_max = max(ke_max, f.energy["kinetic"])
+        err_max = max(err_max, abs(f.energy_balance_error()))
+    assert ke_max > 0.1 * w_max > 0  # a dynamic test: kinetic energy matters
+    assert err_max < 0.01 * w_max
+
+
+def _scenario(tmp_path):
+    return scenario_from_dict(
+        {
+            "name": "restart-test",
+            "domain": {
+                "symmetry": "quarter",
+                "radius": 0.6,
+                "cylinder_mask": False,
+                "soil_depth": 2.0,
+                "void_height": 0.2,
+                "fine_size": 0.2,
+                "fine_radius": 0.6,
+                "fine_depth": 2.0,
+            },
+            "soil": {
+                "model": "mohr-coulomb",
+                "youngs_modulus": 5e6,
+                "friction_angle": 30.0,
+                "layers": [{"top": 0.0, "e0": 0.65}],
+            },
+            "initial": {"k0": 0.3},
+            "loading": {"duration": 0.2},
+            "output": {"history_every_time": 0.01, "fields_every_time": 0.1, "checkpoint_every_steps": 1000},
+        }
+    )
+
+
+def test_restart_gives_the_same_history(tmp_path):
+    sc = _scenario(tmp_path)
+    full = Simulation(sc, out=tmp_path / "full", progress=False).run()
+    assert full["status"] == "finished"
+    part = Simulation(sc, out=tmp_path / "part", progress=False)
+    s1 = part.run(stop_after_steps=full["steps"] // 2)
+    assert s1["status"] == "interrupted"
+    s2 = Simulation(sc, out=tmp_path / "part", progress=False).run(restart=True)
+    assert s2["status"] == "finished" and s2["steps"] == full["steps"]
+    a = pd.read_csv(tmp_path / "full" / "history.csv").drop(columns="wall_time")
+    b = pd.read_csv(tmp_path / "part" / "history.csv").drop(columns="wall_time")
+    pd.testing.assert_frame_equal(a, b, rtol=1e-12)
+    for name in ("config.toml", "summary.json", "fields/fields.pvd"):
+        assert (tmp_path / "part" / name).is_file()
