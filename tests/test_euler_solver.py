@@ -92,7 +92,7 @@ def test_mgs_collapse_reproduces_the_motion_on_a_stretched_time_axis():
     f1, f100 = _collapse_field(1.0), _collapse_field(100.0)
     c0 = _centroid(f1)
     dt1 = 0.8 * f1.dt
-    for n in range(300):
+    for _ in range(300):
         f1.step(dt=dt1)
         f100.step(dt=10.0 * dt1)
     d1 = _centroid(f1) - c0

@@ -57,10 +57,11 @@ def node_mass(mass, active, out):
 
 
 @njit(**KERNEL_OPTIONS)
-def _node_force(i, j, k, hx, hy, hz, active, Vs, stress, q, hg):
+def _node_force(i, j, k, hx, hy, hz, active, Vs, mass, stress, q, hg):
     """Stress, bulk-viscosity and hourglass forces on node (i, j, k), gathered from its ≤ 8 cells.
 
-    Returns (f_σ, f_q, f_hg) as three 3-tuples."""
+    ``hg`` holds the hourglass resistance per unit cell mass, so a cell that the remap has (nearly)
+    emptied exerts a proportionally small force. Returns (f_σ, f_q, f_hg) as three 3-tuples."""
     fx = 0.0
     fy = 0.0
     fz = 0.0
@@ -97,10 +98,11 @@ def _node_force(i, j, k, hx, hy, hz, active, Vs, stress, q, hg):
                 fy -= vs * (sxy * gx + syy * gy + syz * gz)
                 fz -= vs * (sxz * gx + syz * gy + szz * gz)
                 # hourglass: f_I = −Σ_α Q_α h_αI with h = (ξη, ηζ, ξζ, ξηζ)
-                h1 = xi * eta
-                h2 = eta * zeta
-                h3 = xi * zeta
-                h4 = xi * eta * zeta
+                mc = mass[ci, cj, ck]
+                h1 = xi * eta * mc
+                h2 = eta * zeta * mc
+                h3 = xi * zeta * mc
+                h4 = xi * eta * zeta * mc
                 hx_ -= h1 * hg[ci, cj, ck, 0, 0] + h2 * hg[ci, cj, ck, 1, 0]
                 hx_ -= h3 * hg[ci, cj, ck, 2, 0] + h4 * hg[ci, cj, ck, 3, 0]
                 hy_ -= h1 * hg[ci, cj, ck, 0, 1] + h2 * hg[ci, cj, ck, 1, 1]
@@ -111,7 +113,7 @@ def _node_force(i, j, k, hx, hy, hz, active, Vs, stress, q, hg):
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def advance_nodes(hx, hy, hz, active, Vs, stress, q, hg, nmass, v, fix, gravity, dt, mtiny):
+def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gravity, dt, mtiny):
     """v ← v + Δt f/m with stress, viscous, hourglass and gravity forces; boundary conditions.
 
     Energy accounting consistent with the central-difference scheme: the work of every force fⁿ over the
@@ -134,7 +136,7 @@ def advance_nodes(hx, hy, hz, active, Vs, stress, q, hg, nmass, v, fix, gravity,
                     v[i, j, k, 1] = 0.0
                     v[i, j, k, 2] = 0.0
                     continue
-                fs, fq, fh = _node_force(i, j, k, hx, hy, hz, active, Vs, stress, q, hg)
+                fs, fq, fh = _node_force(i, j, k, hx, hy, hz, active, Vs, mass, stress, q, hg)
                 fgz = -m * gravity
                 fx = fs[0] + fq[0] + fh[0]
                 fy = fs[1] + fq[1] + fh[1]
@@ -276,8 +278,9 @@ def update_cells(
                     if tr < 0.0:
                         qn += rho * (b2 * le * tr) ** 2
                     q[i, j, k] = qn
-                    # viscous hourglass control: Q_α = κ ρ_eff c V^{2/3} / 8 · q_α
-                    chg = kappa * (mass[i, j, k] / vol) * cd * vol ** (2.0 / 3.0) / 8.0
+                    # viscous hourglass control: Q_α = κ ρ_eff c V^{2/3} / 8 · q_α, stored per unit cell
+                    # mass (multiplied by the current mass when the forces are gathered)
+                    chg = kappa * cd * vol ** (2.0 / 3.0) / (8.0 * vol)
                     for a in range(4):
                         for d in range(3):
                             hg[i, j, k, a, d] = chg * qh[a, d]

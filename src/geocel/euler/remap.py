@@ -7,11 +7,14 @@ Directional splitting (x, y, z sweeps; the order alternates every step) with con
   the three sweeps (the one-point divergence equals the sum of the face fluxes);
 * the soil part of δV follows the donor–acceptor rule of Hirt & Nichols (1981) for a sharp free
   surface, bounded so that a donor never gives more soil than it holds nor more void than it has;
-  mass, stress·V_s and state·V_s are carried with that soil
-  volume, reconstructed per unit soil volume with the **van Leer** limiter (Benson 1992; van Leer 1977);
+  mass, stress·V_s and state·V_s are carried with that soil volume, reconstructed per unit soil volume
+  with the **van Leer** limiter between full cells (Benson 1992; van Leer 1977) and first-order upwind at
+  the free surface, so density and stress stay consistent in mixed cells; a flux that empties its donor
+  takes everything the donor holds (no mass is left without soil volume);
 * nodal momentum is advected on the dual (node-centred) grid: the mass flux through the dual face at a
   cell centre is the mean of the cell's two face mass fluxes, shared by the cell's four edges. This keeps
-  the nodal mass equal to Σ m_cell/8 after every sweep (exact consistency), and momentum is conserved.
+  the nodal mass equal to Σ m_cell/8 after every sweep (exact consistency), and momentum is conserved
+  (a node that nearly empties is limited to the range of the velocities it exchanged mass with).
 
 Faces on the domain boundary and between active and masked columns carry no flux; the top face of the
 domain is open (material leaving is counted). Cells whose soil volume would exceed the cell volume (a
@@ -146,24 +149,35 @@ def sweep_cells(h1, h2, active3, v, comp, dt, Vs, Vcur, mass, stress, state, fba
                 if dvs <= 0.0:
                     continue
                 dVs[f] = sgn * dvs
-                # per-unit-soil-volume quantities of donor, acceptor and upwind neighbour
-                okA = Ac >= 0 and Vs[i, j, Ac] > VS_TINY * Vcur[i, j, Ac]
-                okU = U >= 0 and Vs[i, j, U] > VS_TINY * Vcur[i, j, U]
-                cs = 0.5 * (1.0 - min(dvs / vsD, 1.0))
+                if dvs >= vsD * (1.0 - 1.0e-12):
+                    # the donor is emptied: everything it holds goes (no mass without soil volume left)
+                    dVs[f] = sgn * vsD
+                    dm[f] = sgn * mass[i, j, D]
+                    for d in range(6):
+                        dsig[f, d] = sgn * vsD * stress[i, j, D, d]
+                    for d in range(ns):
+                        dst[f, d] = sgn * vsD * state[i, j, D, d]
+                    continue
+                # per-unit-soil-volume quantities: second order (van Leer) between full cells, first-order
+                # upwind near the free surface, so that density and stress stay consistent in mixed cells
+                full = (
+                    phiD > 1.0 - 1.0e-9 and Ac >= 0 and phiA > 1.0 - 1.0e-9 and U >= 0 and phiU > 1.0 - 1.0e-9
+                )
+                cs = 0.5 * (1.0 - min(dvs / vsD, 1.0)) if full else 0.0
                 rD = mass[i, j, D] / vsD
-                rA = mass[i, j, Ac] / Vs[i, j, Ac] if okA else rD
-                rU = mass[i, j, U] / Vs[i, j, U] if okU else rD
+                rA = mass[i, j, Ac] / Vs[i, j, Ac] if full else rD
+                rU = mass[i, j, U] / Vs[i, j, U] if full else rD
                 rf = rD + cs * _vanleer(rA - rD, rD - rU)
                 dm[f] = sgn * min(dvs * rf, mass[i, j, D])
                 for d in range(6):
                     sD = stress[i, j, D, d]
-                    sA = stress[i, j, Ac, d] if okA else sD
-                    sU = stress[i, j, U, d] if okU else sD
+                    sA = stress[i, j, Ac, d] if full else sD
+                    sU = stress[i, j, U, d] if full else sD
                     dsig[f, d] = sgn * dvs * (sD + cs * _vanleer(sA - sD, sD - sU))
                 for d in range(ns):
                     sD = state[i, j, D, d]
-                    sA = state[i, j, Ac, d] if okA else sD
-                    sU = state[i, j, U, d] if okU else sD
+                    sA = state[i, j, Ac, d] if full else sD
+                    sU = state[i, j, U, d] if full else sD
                     dst[f, d] = sgn * dvs * (sD + cs * _vanleer(sA - sD, sD - sU))
             if open_end and dm[n] > 0.0:
                 lost += dm[n]
@@ -244,11 +258,21 @@ def sweep_nodes(active3, fbar, m_old, m_new, v, mtiny):
                     continue
                 for d in range(3):
                     p = m_old[i, j, k] * vo[k, d]
+                    lo = vo[k, d]
+                    hi = vo[k, d]
                     if k < n:
                         p -= fp[k, d]
+                        if m_old[i, j, k + 1] > mtiny:
+                            lo = min(lo, vo[k + 1, d])
+                            hi = max(hi, vo[k + 1, d])
                     if k > 0:
                         p += fp[k - 1, d]
-                    v[i, j, k, d] = p / mn
+                        if m_old[i, j, k - 1] > mtiny:
+                            lo = min(lo, vo[k - 1, d])
+                            hi = max(hi, vo[k - 1, d])
+                    # monotonicity: a node that nearly empties must not get a velocity outside the range
+                    # of the velocities it exchanged mass with
+                    v[i, j, k, d] = min(hi, max(lo, p / mn))
 
 
 _ORDERS = ((0, 1, 2), (2, 1, 0))
