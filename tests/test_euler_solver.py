@@ -316,3 +316,37 @@ def test_restart_gives_the_same_history(tmp_path):
     pd.testing.assert_frame_equal(a, b, rtol=1e-12)
     for name in ("config.toml", "summary.json", "fields/fields.pvd"):
         assert (tmp_path / "part" / name).is_file()
+
+
+def test_cylinder_masked_graded_domain_stays_at_rest():
+    grid = Grid.graded(radius=3.0, depth=3.0, void=0.3, fine=0.3, fine_radius=0.9, fine_depth=1.5, growth=1.3)
+    assert not grid.active2d.all()  # the container wall masks the corner columns
+    f = SoilField(grid, Hypoplastic.fraction_e(), scaling=10.0)
+    f.fill_below(0.0)
+    f.geostatic([(0.0, 0.60)], k0=0.5)
+    for _ in range(200):
+        f.step()
+    assert np.abs(f.v).max() < 1e-6
+    assert abs(f.mass_error()) < 1e-12
+
+
+def test_instability_is_reported_with_a_diagnostic_and_the_last_good_state(tmp_path):
+    grid = column_grid(h=0.2, depth=2.0, void=0.2)
+    f = SoilField(grid, Elastic(youngs_modulus=5e6, poisson_ratio=0.3))
+    f.fill_below(0.0)
+    f.geostatic([(0.0, 0.65)], k0=0.5)
+    f.stress[...] = 0.0
+    from geocel.solver.field import InstabilityError
+
+    with pytest.raises(InstabilityError) as info:
+        for _ in range(2000):
+            f.step(dt=5.0 * f.dt_critical)  # far beyond the stable step
+    d = info.value.diagnostic
+    assert d["quantity"] in ("stress", "velocity") and len(d["position_m"]) == 3 and d["step"] > 0
+    # through the simulation loop: the kinetic-energy limit stops the run, the last good state is written
+    sc = _scenario(tmp_path).model_copy(deep=True)
+    sc.solver.kinetic_energy_limit = 1e-9
+    summary = Simulation(sc, out=tmp_path / "unstable", progress=False).run()
+    assert summary["status"] == "unstable" and summary["diagnostic"]["quantity"] == "kinetic_energy"
+    assert (tmp_path / "unstable" / "checkpoint.npz").is_file()
+    assert len(list((tmp_path / "unstable" / "fields").glob("soil_*.vtr"))) >= 1
