@@ -174,34 +174,53 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
     return t[0], t[1], t[2], t[3], t[4]
 
 
-@njit(inline="always", **KERNEL_OPTIONS)
-def _velocity_gradient(v, i, j, k, hx, hy, hz, L, qh):
-    """L_ab = Σ_I v_a,I ∂N_I/∂x_b at the centre of cell (i, j, k), and the 4×3 hourglass mode amplitudes
-    (written into the caller's buffers L and qh)."""
-    L[:] = 0.0
-    qh[:] = 0.0
+@njit(**KERNEL_OPTIONS)
+def _velocity_gradient(v, i, j, k, hx, hy, hz):
+    """Velocity gradient L (9-tuple, row-major L_ab = ∂v_a/∂x_b) at the centre of cell (i, j, k) and the
+    hourglass mode amplitudes q_α (α = ξη, ηζ, ξζ, ξηζ; 4 × 3 as a 12-tuple), on scalar registers."""
+    # sums over the corners with the signs of ξ, η, ζ and of the hourglass base vectors
+    sx = (0.0, 0.0, 0.0)
+    sy = (0.0, 0.0, 0.0)
+    sz = (0.0, 0.0, 0.0)
+    q1 = (0.0, 0.0, 0.0)
+    q2 = (0.0, 0.0, 0.0)
+    q3 = (0.0, 0.0, 0.0)
+    q4 = (0.0, 0.0, 0.0)
     for a in range(2):
         xi = 2.0 * a - 1.0
         for b in range(2):
             eta = 2.0 * b - 1.0
             for c in range(2):
                 zeta = 2.0 * c - 1.0
-                g0 = xi / (4.0 * hx)
-                g1 = eta / (4.0 * hy)
-                g2 = zeta / (4.0 * hz)
+                v0 = v[i + a, j + b, k + c, 0]
+                v1 = v[i + a, j + b, k + c, 1]
+                v2 = v[i + a, j + b, k + c, 2]
+                sx = (sx[0] + xi * v0, sx[1] + xi * v1, sx[2] + xi * v2)
+                sy = (sy[0] + eta * v0, sy[1] + eta * v1, sy[2] + eta * v2)
+                sz = (sz[0] + zeta * v0, sz[1] + zeta * v1, sz[2] + zeta * v2)
                 h1 = xi * eta
                 h2 = eta * zeta
                 h3 = xi * zeta
-                h4 = xi * eta * zeta
-                for d in range(3):
-                    vd = v[i + a, j + b, k + c, d]
-                    L[d, 0] += vd * g0
-                    L[d, 1] += vd * g1
-                    L[d, 2] += vd * g2
-                    qh[0, d] += h1 * vd
-                    qh[1, d] += h2 * vd
-                    qh[2, d] += h3 * vd
-                    qh[3, d] += h4 * vd
+                h4 = h1 * zeta
+                q1 = (q1[0] + h1 * v0, q1[1] + h1 * v1, q1[2] + h1 * v2)
+                q2 = (q2[0] + h2 * v0, q2[1] + h2 * v1, q2[2] + h2 * v2)
+                q3 = (q3[0] + h3 * v0, q3[1] + h3 * v1, q3[2] + h3 * v2)
+                q4 = (q4[0] + h4 * v0, q4[1] + h4 * v1, q4[2] + h4 * v2)
+    gx = 0.25 / hx
+    gy = 0.25 / hy
+    gz = 0.25 / hz
+    L = (
+        sx[0] * gx,
+        sy[0] * gy,
+        sz[0] * gz,
+        sx[1] * gx,
+        sy[1] * gy,
+        sz[1] * gz,
+        sx[2] * gx,
+        sy[2] * gy,
+        sz[2] * gz,
+    )
+    return L, (q1[0], q1[1], q1[2], q2[0], q2[1], q2[2], q3[0], q3[1], q3[2], q4[0], q4[1], q4[2])
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -225,8 +244,6 @@ def update_cells(
         dbuf = np.empty(6)
         wbuf = np.empty(3)
         work = np.empty(128)
-        L = np.empty((3, 3))
-        qh = np.empty((4, 3))
         best = np.inf
         best_c = -1
         for i in range(ch * nx // nchunk, (ch + 1) * nx // nchunk):
@@ -246,18 +263,18 @@ def update_cells(
                                 hg[i, j, k, a, d] = 0.0
                         flags[i, j, k] = 0
                         continue
-                    _velocity_gradient(v, i, j, k, hx[i], hy[j], hz[k], L, qh)
+                    L, qh = _velocity_gradient(v, i, j, k, hx[i], hy[j], hz[k])
                     D = (
-                        L[0, 0] * dt,
-                        L[1, 1] * dt,
-                        L[2, 2] * dt,
-                        0.5 * (L[0, 1] + L[1, 0]) * dt,
-                        0.5 * (L[0, 2] + L[2, 0]) * dt,
-                        0.5 * (L[1, 2] + L[2, 1]) * dt,
+                        L[0] * dt,
+                        L[4] * dt,
+                        L[8] * dt,
+                        0.5 * (L[1] + L[3]) * dt,
+                        0.5 * (L[2] + L[6]) * dt,
+                        0.5 * (L[5] + L[7]) * dt,
                     )
-                    w12 = 0.5 * (L[0, 1] - L[1, 0]) * dt
-                    w13 = 0.5 * (L[0, 2] - L[2, 0]) * dt
-                    w23 = 0.5 * (L[1, 2] - L[2, 1]) * dt
+                    w12 = 0.5 * (L[1] - L[3]) * dt
+                    w13 = 0.5 * (L[2] - L[6]) * dt
+                    w23 = 0.5 * (L[5] - L[7]) * dt
                     if model == HYPOPLASTIC:
                         M, f = hypoplastic_cell(prm, s2, st2, c, D, w12, w13, w23, 1)
                     else:
@@ -273,7 +290,7 @@ def update_cells(
                     cd = np.sqrt(M / rho)
                     le = characteristic_length(hx[i], hy[j], hz[k])
                     # bulk viscosity (Abaqus-type): linear always, quadratic in compression
-                    tr = L[0, 0] + L[1, 1] + L[2, 2]
+                    tr = L[0] + L[4] + L[8]
                     qn = -b1 * rho * cd * le * tr
                     if tr < 0.0:
                         qn += rho * (b2 * le * tr) ** 2
@@ -283,11 +300,12 @@ def update_cells(
                     chg = kappa * cd * vol ** (2.0 / 3.0) / (8.0 * vol)
                     for a in range(4):
                         for d in range(3):
-                            hg[i, j, k, a, d] = chg * qh[a, d]
+                            hg[i, j, k, a, d] = chg * qh[3 * a + d]
                     # stable step of this cell, with the viscosity correction of the explicit scheme
-                    vmax = np.sqrt(L[0, 0] ** 2 + L[1, 1] ** 2 + L[2, 2] ** 2) * le
+                    vmax = np.sqrt(L[0] ** 2 + L[4] ** 2 + L[8] ** 2) * le
                     xi_b = b1 - b2 * b2 * le * min(tr, 0.0) / max(cd, 1e-30)
-                    dtc = le / (cd * (np.sqrt(1.0 + xi_b * xi_b) - xi_b) + vmax)
+                    # critical step of central differences with damping ratio ξ: (L_e/c)(√(1+ξ²) − ξ)
+                    dtc = le / (cd * (np.sqrt(1.0 + xi_b * xi_b) + xi_b) + vmax)
                     if dtc < best:
                         best = dtc
                         best_c = c

@@ -78,10 +78,12 @@ def volume_change(hx, hy, hz, active, v, dt, Vs, Vcur):
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def sweep_cells(h1, h2, active3, v, comp, dt, Vs, Vcur, mass, stress, state, fbar, open_end):
+def sweep_cells(h1, h2, active3, v, comp, dt, Vs, Vcur, mass, stress, state, fbar, open_end, rho_lo, rho_hi):
     """Advect cell quantities along the last spatial axis of the (possibly transposed) arrays.
 
-    Returns (mass leaving through the open end, soil volume capped by overfill)."""
+    The soil volume of a cell is kept consistent with its mass: its density stays in [rho_lo, rho_hi]
+    (a nearly empty "dust" cell cannot hold soil volume without mass, which would otherwise govern the
+    time step). Returns (mass leaving through the open end, soil volume adjusted by these rules)."""
     n1, n2, n = Vs.shape
     ns = state.shape[3]
     lost = 0.0
@@ -92,8 +94,11 @@ def sweep_cells(h1, h2, active3, v, comp, dt, Vs, Vcur, mass, stress, state, fba
         dm = np.zeros(n + 1)
         dsig = np.zeros((n + 1, 6))
         dst = np.zeros((n + 1, ns))
+        phi = np.zeros(n)
         for j in range(n2):
             A = h1[i] * h2[j]
+            for k in range(n):
+                phi[k] = Vs[i, j, k] / Vcur[i, j, k]
             for f in range(n + 1):
                 dV[f] = 0.0
                 dVs[f] = 0.0
@@ -134,15 +139,18 @@ def sweep_cells(h1, h2, active3, v, comp, dt, Vs, Vcur, mass, stress, state, fba
                 adv = abs(dv)
                 vsD = Vs[i, j, D]
                 vcD = Vcur[i, j, D]
-                phiD = vsD / vcD
-                phiA = Vs[i, j, Ac] / Vcur[i, j, Ac] if Ac >= 0 else phiD
-                phiU = Vs[i, j, U] / Vcur[i, j, U] if U >= 0 else phiD
+                phiD = phi[D]
+                phiA = phi[Ac] if Ac >= 0 else phiD
+                phiU = phi[U] if U >= 0 else phiD
                 # Hirt–Nichols donor–acceptor: where the interface crosses the sweep direction the
                 # acceptor's fraction decides (the donor fills or empties completely before material
                 # passes: a sharp front); where it runs along the sweep the donor's fraction is used
-                along = abs(phiA - phiU)
-                across = _transverse_gradient(Vs, Vcur, active3, i, j, D)
-                phiAD = phiA if (Ac >= 0 and along >= across) else phiD
+                if phiD == phiA:
+                    phiAD = phiD  # (e.g. inside the soil) both choices agree
+                else:
+                    along = abs(phiA - phiU)
+                    across = _transverse_gradient(Vs, Vcur, active3, i, j, D)
+                    phiAD = phiA if (Ac >= 0 and along >= across) else phiD
                 cf = max((1.0 - phiAD) * adv - (vcD - vsD), 0.0)
                 dvs = min(phiAD * adv + cf, vsD)
                 if dvs <= 0.0:
@@ -190,9 +198,11 @@ def sweep_cells(h1, h2, active3, v, comp, dt, Vs, Vcur, mass, stress, state, fba
                 Vcur[i, j, k] = vc_new
                 mass[i, j, k] += dm[k] - dm[k + 1]
                 fbar[i, j, k] = 0.125 * (dm[k] + dm[k + 1])
-                if vs_new > vc_new:
-                    capped += vs_new - vc_new
-                    vs_new = vc_new
+                m_new = mass[i, j, k]
+                vs_fix = min(max(vs_new, m_new / rho_hi), m_new / rho_lo) if m_new > 0.0 else 0.0
+                vs_fix = min(vs_fix, vc_new)
+                capped += abs(vs_fix - vs_new)
+                vs_new = vs_fix
                 if vs_new > VS_TINY * vc_new and mass[i, j, k] > 0.0:
                     inv = 1.0 / vs_new
                     for d in range(6):
@@ -303,6 +313,8 @@ def remap(
     fbar: np.ndarray,
     parity: int,
     mtiny: float,
+    rho_lo: float = 0.0,
+    rho_hi: float = np.inf,
 ) -> tuple[float, float]:
     """Advect everything back to the fixed grid (in place). ``nmass`` holds the nodal masses on entry and
     is updated. Returns (mass lost through the top, soil volume capped)."""
@@ -331,6 +343,8 @@ def remap(
             state.transpose(pc),
             fbar.transpose(p),
             axis == 2,
+            rho_lo,
+            rho_hi,
         )
         lost += l
         capped += c

@@ -24,6 +24,9 @@ from ..materials.tensor import KERNEL_OPTIONS
 
 Material = Elastic | MohrCoulomb | Hypoplastic
 
+#: band of void ratios that bounds the soil density of a cell in the remap (dust cells near the surface)
+E_MIN, E_MAX = 0.1, 3.0
+
 ENERGY_KEYS = (
     "kinetic",
     "internal",
@@ -266,6 +269,8 @@ class SoilField:
             self.fbar,
             self.step_count if parity is None else parity,
             self.mass_tiny,
+            self.grain_density / (1.0 + E_MAX),
+            self.grain_density / (1.0 + E_MIN),
         )
         t3 = time.perf_counter()
         ke_after = _kinetic_energy(self.nmass, self.v)
@@ -295,22 +300,41 @@ class SoilField:
         tm["bookkeeping"] += t4 - t3
 
     def _diagnose(self, dt: float) -> tuple[str, dict]:
+        """Where and which quantity went non-finite (cell arrays at cell centres, node arrays at nodes);
+        if every array is finite, the energy sum overflowed: report the fastest node."""
         g = self.grid
         diag: dict = {"step": self.step_count, "time": self.time, "dt": dt}
-        for name, arr in (("stress", self.stress), ("velocity", self.v)):
-            bad = ~np.isfinite(arr)
-            if bad.any():
-                idx = np.argwhere(bad)[0]
-                i, j, k = (int(t) for t in idx[:3])
-                if name == "stress":
-                    where = (float(g.xc[i]), float(g.yc[j]), float(g.zc[k]))
-                else:
-                    where = (float(g.x[i]), float(g.y[j]), float(g.z[k]))
-                diag.update(quantity=name, index=[i, j, k], position_m=where)
+        cells = (
+            ("stress", self.stress),
+            ("mass", self.mass),
+            ("soil_volume", self.Vs),
+            ("viscous_pressure", self.q),
+        )
+        nodes = (("velocity", self.v), ("nodal_mass", self.nmass))
+        for kind, arrays in (("cell", cells), ("node", nodes)):
+            for name, arr in arrays:
+                bad = ~np.isfinite(arr)
+                if bad.any():
+                    i, j, k = (int(t) for t in np.argwhere(bad)[0][:3])
+                    if kind == "cell":
+                        where = (float(g.xc[i]), float(g.yc[j]), float(g.zc[k]))
+                    else:
+                        where = (float(g.x[i]), float(g.y[j]), float(g.z[k]))
+                    diag.update(quantity=name, index=[i, j, k], position_m=where)
+                    break
+            if "quantity" in diag:
                 break
+        else:
+            speed = np.abs(np.nan_to_num(self.v, nan=0.0, posinf=0.0, neginf=0.0)).max(axis=-1)
+            i, j, k = (int(t) for t in np.unravel_index(np.argmax(speed), speed.shape))
+            diag.update(
+                quantity="kinetic_energy",
+                index=[i, j, k],
+                position_m=(float(g.x[i]), float(g.y[j]), float(g.z[k])),
+            )
         msg = (
             f"instability at step {self.step_count} (t = {self.time:.6g} s, Δt = {dt:.3g} s): non-finite "
-            f"{diag.get('quantity', 'energy')} at {diag.get('position_m', '?')}"
+            f"{diag['quantity']} at {diag['position_m']}"
         )
         return msg, diag
 
