@@ -182,6 +182,16 @@ def _rows() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.zeros((6, 6)), np.zeros((6, 6)), np.zeros(6)
 
 
+def _lateral_rows(Ae: np.ndarray, As: np.ndarray, drained: bool) -> None:
+    """Rows 0–1 of a triaxial step: drained, constant lateral stresses; undrained, ε_xx = ε_yy, tr Δε = 0."""
+    if drained:
+        As[0, 0] = 1.0
+        As[1, 1] = 1.0
+    else:
+        Ae[0, 0], Ae[0, 1] = 1.0, -1.0
+        Ae[1, :3] = 1.0
+
+
 def strain_step(deps: np.ndarray) -> Step:
     """Every component strain-controlled."""
     Ae, As, b = _rows()
@@ -193,12 +203,7 @@ def strain_step(deps: np.ndarray) -> Step:
 def triaxial_step(deps_axial: float, drained: bool = True) -> Step:
     """Axial strain increment; drained: lateral stresses constant; undrained: constant volume."""
     Ae, As, b = _rows()
-    if drained:
-        As[0, 0] = 1.0
-        As[1, 1] = 1.0
-    else:
-        Ae[0, 0], Ae[0, 1] = 1.0, -1.0  # ε_xx = ε_yy
-        Ae[1, :3] = 1.0  # tr Δε = 0
+    _lateral_rows(Ae, As, drained)
     Ae[2, 2] = 1.0
     b[2] = deps_axial
     for k in range(3, 6):
@@ -209,12 +214,7 @@ def triaxial_step(deps_axial: float, drained: bool = True) -> Step:
 def triaxial_stress_step(dq: float, drained: bool = True) -> Step:
     """Deviator increment Δq = Δσ_xx − Δσ_zz; drained: lateral stresses constant; undrained: constant volume."""
     Ae, As, b = _rows()
-    if drained:
-        As[0, 0] = 1.0
-        As[1, 1] = 1.0
-    else:
-        Ae[0, 0], Ae[0, 1] = 1.0, -1.0
-        Ae[1, :3] = 1.0
+    _lateral_rows(Ae, As, drained)
     As[2, 0], As[2, 2] = 1.0, -1.0
     b[2] = dq
     for k in range(3, 6):
