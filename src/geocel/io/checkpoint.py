@@ -8,12 +8,13 @@ checkpoint stays intact. Arrays round-trip bit-exact (dtype and shape kept, no c
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from .atomic import atomic_write
 
 __all__ = ["META_KEY", "load_checkpoint", "save_checkpoint"]
 
@@ -50,28 +51,8 @@ def save_checkpoint(path: str | Path, arrays: Mapping[str, np.ndarray], meta: Ma
             raise ValueError(f"checkpoint array {name!r} has an object dtype")
         payload[name] = a
     payload[META_KEY] = np.array(json.dumps(dict(meta), default=_json_default))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = _tmp_path(path)
-    try:
-        with tmp.open("wb") as f:
-            np.savez(f, **payload)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    try:  # make the rename durable
-        dir_fd = os.open(path.parent, os.O_RDONLY)
-    except OSError:
-        return path
-    try:
-        os.fsync(dir_fd)
-    except OSError:
-        pass
-    finally:
-        os.close(dir_fd)
-    return path
+    # np.savez would append ".npz" to a name without it: the temporary name keeps the suffix
+    return atomic_write(path, lambda f: np.savez(f, **payload), binary=True, tmp=_tmp_path(path))
 
 
 def load_checkpoint(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:

@@ -9,7 +9,7 @@ import numpy as np
 from numba import njit
 
 from . import flags as fl
-from .tensor import co_rotate
+from .tensor import co_rotate, is_zero
 
 P_E = 0
 P_NU = 1
@@ -40,14 +40,7 @@ def elastic_update(prm, stress, state, deps, dspin, tol, nsub):
     co_rotate(stress, dspin)
     lam, mu = lame(prm)
     tr = deps[0] + deps[1] + deps[2]
-    if (
-        tr == 0.0
-        and deps[0] == 0.0
-        and deps[1] == 0.0
-        and deps[3] == 0.0
-        and deps[4] == 0.0
-        and (deps[5] == 0.0)
-    ):
+    if is_zero(deps):
         return lam + 2.0 * mu, fl.ZERO_INCREMENT
     for i in range(3):
         stress[i] += lam * tr + 2.0 * mu * deps[i]

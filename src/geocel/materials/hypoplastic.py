@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit
 
 from . import flags as fl
-from .tensor import KERNEL_OPTIONS, SQRT2, SQRT6, co_rotate, co_rotate_tuple, norm
+from .tensor import KERNEL_OPTIONS, SQRT2, SQRT6, co_rotate, co_rotate_tuple, is_zero, norm
 
 # --- parameter array layout -------------------------------------------------------------------------------
 P_PHI_C = 0  # critical friction angle φ_c, rad
@@ -437,14 +437,7 @@ def hypoplastic_update(prm, stress, state, deps, dspin, tol, nsub, w):
     co_rotate(stress, dspin)
     if prm[P_IGS] != 0.0:
         co_rotate(state[1:7], dspin)
-    if (
-        deps[0] == 0.0
-        and deps[1] == 0.0
-        and deps[2] == 0.0
-        and deps[3] == 0.0
-        and deps[4] == 0.0
-        and (deps[5] == 0.0)
-    ):
+    if is_zero(deps):
         flags = fl.ZERO_INCREMENT | apply_stress_floor(prm, stress)
         return stiffness(prm, stress, state, w), flags
     if tol > 0.0:
@@ -478,7 +471,7 @@ def hypoplastic_cell(prm, stress, state, i, D, w12, w13, w23, nsub):
         T = co_rotate_tuple(T, w12, w13, w23)
         if prm[P_IGS] != 0.0:
             q = co_rotate_tuple(q, w12, w13, w23)
-    if D[0] == 0.0 and D[1] == 0.0 and D[2] == 0.0 and D[3] == 0.0 and D[4] == 0.0 and D[5] == 0.0:
+    if is_zero(D):
         T, f = floor_tuple(prm[P_PMIN], T)
         _, _, M, _ = rate_scalar(prm, T, e, q, D)
         flags = fl.ZERO_INCREMENT | f

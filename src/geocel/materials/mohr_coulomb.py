@@ -41,9 +41,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from geocel.materials.elastic import lame
 from geocel.materials.flags import PLASTIC, TENSION_CUTOFF, ZERO_INCREMENT
 from geocel.materials.principal import compose, eigh3, principal_values
-from geocel.materials.tensor import co_rotate
+from geocel.materials.tensor import co_rotate, is_zero
 
 # parameter indices
 P_E = 0
@@ -111,15 +112,6 @@ def make_params(
     if phi > 0.0 and sigma_t > c / np.tan(phi) * (1.0 + 1e-12):
         raise ValueError("sigma_t must not exceed the apex c·cot(phi)")
     return np.array([E, nu, phi, psi, c, sigma_t], dtype=np.float64)
-
-
-@njit(cache=True, inline="always")
-def _lame(params):
-    E = params[P_E]
-    nu = params[P_NU]
-    lam = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
-    mu = 0.5 * E / (1.0 + nu)
-    return lam, mu
 
 
 @njit(cache=True, inline="always")
@@ -285,16 +277,9 @@ def mc_update(params, stress, state, deps, dspin, tol, nsub):
     material interface and ignored: the return mapping is exact.
     """
     co_rotate(stress, dspin)
-    lam, mu = _lame(params)
+    lam, mu = lame(params)  # parameters start with E, ν as for the elastic model
     pwave = lam + 2.0 * mu
-    if (
-        deps[0] == 0.0
-        and deps[1] == 0.0
-        and deps[2] == 0.0
-        and deps[3] == 0.0
-        and deps[4] == 0.0
-        and deps[5] == 0.0
-    ):
+    if is_zero(deps):
         return pwave, ZERO_INCREMENT
 
     tr = deps[0] + deps[1] + deps[2]

@@ -29,6 +29,12 @@ def ddot(a, b):
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
+def is_zero(a):
+    """True when all six components of a strain increment are exactly zero (the zero-increment rule)."""
+    return a[0] == 0.0 and a[1] == 0.0 and a[2] == 0.0 and a[3] == 0.0 and a[4] == 0.0 and a[5] == 0.0
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
 def norm(a):
     """Frobenius norm ‖a‖ = √(a:a)."""
     return np.sqrt(ddot(a, a))
