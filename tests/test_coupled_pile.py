@@ -110,3 +110,42 @@ def test_coupled_time_step_is_governed_by_the_beam_not_the_small_volume_elements
     for _ in range(3000):
         pile.step(0.98 * dt_c)
     assert np.isfinite(pile.beam.v).all() and np.abs(pile.beam.v).max() < 2.0
+
+
+def test_coupled_and_solid_piles_have_the_same_bending_stiffness():
+    """Cantilever (half model, base clamped) under a lateral head load F: both piles against each other and
+    against Timoshenko's δ = FL³/(3EI) + FL/(κGA)."""
+    L, F, D = 3.0, 100.0, 0.6
+    mesh = pile_mesh(PileGeometry(diameter=D, length=L, z_tip=0.0), 0.15, symmetry="half")
+    head = mesh.head_nodes
+    I = np.pi * D**4 / 64
+    A = np.pi * D**2 / 4
+    G = E_SOFT / (2 * (1 + NU))
+    kappa = 6 * (1 + NU) / (7 + 6 * NU)
+    exact = F * L**3 / (3 * E_SOFT * I) + F * L / (kappa * G * A)
+    rho_a = RHO * A
+    w1 = 1.875**2 * np.sqrt(E_SOFT * I / (rho_a * L**4))  # first bending frequency
+    # solid: head load spread over the head nodes by their share of the head area, dynamic relaxation
+    body = SolidBody.from_mesh(mesh, E_SOFT, NU, RHO)
+    fixed = np.zeros((body.n_nodes, 3), dtype=bool)
+    fixed[mesh.symmetry_nodes()["y"], 1] = True
+    fixed[mesh.layer_nodes(0)] = True
+    f_ext = np.zeros((body.n_nodes, 3))
+    f_ext[head, 0] = F / 2 * body.mass[head] / body.mass[head].sum()
+    dt = 0.9 * body.stable_time_step()[0]
+    n = int(12.0 / (w1 * dt))
+    for _ in range(n):
+        body.step(dt, f_ext=f_ext - 2 * w1 * body.mass[:, None] * body.v, fixed=fixed)
+    d_solid = body.displacement[head, 0].mean()
+    # coupled: the beam carries the load at its head node
+    pile = CoupledPile(mesh, BeamSection.solid_circle(D, E_SOFT, NU, RHO))
+    fixed_b = np.zeros((pile.beam.n_nodes, 6), dtype=bool)
+    fixed_b[0] = True
+    f_beam = np.zeros((pile.beam.n_nodes, 6))
+    f_beam[-1, 0] = F / 2
+    dt = 0.9 * pile.stable_time_step()[0]
+    for _ in range(int(12.0 / (w1 * dt))):
+        pile.step(dt, f_beam=f_beam, fixed_dofs=fixed_b, damping=2 * w1)
+    d_coupled = pile.beam.u[-1, 0]
+    assert d_coupled == pytest.approx(exact, rel=0.02)
+    assert d_coupled == pytest.approx(d_solid, rel=0.05)

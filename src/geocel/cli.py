@@ -195,13 +195,9 @@ def run(
     except (ValueError, OSError, NotImplementedError) as err:
         console.print(f"[red]error:[/red] {escape(str(err))}")
         raise typer.Exit(2) from err
-    field_grid = sim.run_dir.root
-    console.print(f"run directory: {field_grid}")
+    console.print(f"run directory: {sim.run_dir.root}")
     summary = sim.run(restart=restart)
-    console.print(
-        f"status [bold]{summary['status']}[/bold]: {summary['steps']} steps, t = {summary['time']:.4g} s, "
-        f"wall {summary['wall_time']:.1f} s; Δt governed by the soil cell at {summary['dt_governing_element']['position_m']}"
-    )
+    _print_summary(summary)
     console.print(
         f"soil mass error {summary['soil_mass_error']:.2e}, max KE/IE {summary['max_energy_ratio']:.3g}, "
         f"energy balance error {summary['energy_balance_error']:.3g} J of {summary['external_work']:.3g} J external work"
@@ -209,6 +205,19 @@ def run(
     if summary["status"] == "unstable":
         console.print(f"[red]unstable:[/red] {escape(str(summary['diagnostic']))}")
         raise typer.Exit(1)
+
+
+def _print_summary(summary: dict) -> None:
+    console.print(
+        f"status [bold]{summary['status']}[/bold]: {summary['steps']} steps, t = {summary['time']:.4g} s, "
+        f"wall {summary['wall_time']:.1f} s; Δt = {summary['dt_governing_value']:.3g} s governed by "
+        f"{summary['dt_governing_body']} {escape(str(summary['dt_governing_element']))}"
+    )
+    if "pile_type" in summary:
+        console.print(
+            f"{summary['pile_type']} pile: tip at {summary['tip_depth']:.3f} m depth after "
+            f"{summary['penetration']:.3f} m of jacking at {summary['velocity']:.3g} m/s"
+        )
 
 
 @app.command()

@@ -188,10 +188,13 @@ class CoupledPile:
         f_beam: np.ndarray | None = None,
         fixed_dofs: np.ndarray | None = None,
         damping: float = 0.0,
-    ) -> None:
+        prescribed: tuple[int, int, float] | None = None,
+    ) -> np.ndarray:
         """Central-difference step: forces on the volume nodes (dummy stresses + ``f_volume``) go to the beam,
         the beam moves (``f_beam`` (nb, 6) extra external loads, ``fixed_dofs`` extra constraints), the volume
-        nodes follow rigidly and the dummy stresses are updated."""
+        nodes follow rigidly and the dummy stresses are updated. ``prescribed`` = (beam node, dof, velocity):
+        that DOF (which must also be in ``fixed_dofs``) moves at the given velocity. Returns the beam's
+        internal forces f_int(uⁿ) (nb, 6)."""
         vol = self.volume
         f = vol.internal_forces().copy()
         if f_volume is not None:
@@ -202,7 +205,11 @@ class CoupledPile:
         if f_beam is not None:
             F += f_beam
         fixed = self.fixed if fixed_dofs is None else (self.fixed | fixed_dofs)
-        self.beam.step(dt, f_ext=F, fixed_dofs=fixed, damping=damping)
+        f_int = self.beam.step(dt, f_ext=F, fixed_dofs=fixed, damping=damping)
+        if prescribed is not None:
+            node, dof, value = prescribed
+            self.beam.v[node, dof] = value
+            self.beam.u[node, dof] += value * dt
         place_tied_nodes(self.layer, self.r0, self.beam.z, self.beam.u, self.beam.v, vol.x, vol.v)
         from .solid import update_elements, update_elements_parallel
 
@@ -222,3 +229,4 @@ class CoupledPile:
             vol.rate_v,
         )
         vol.time += dt
+        return f_int

@@ -312,12 +312,14 @@ def pile_mesh(
     n_core: int | None = None,
     *,
     n_ring: int | None = None,
+    axial_size: float | None = None,
 ) -> PileMesh:
     """Structured O-grid hexahedral mesh of the closed-ended pile (see the module docstring).
 
     element_size (m): target size h along z and around the circumference; symmetry: "quarter" | "half" |
     "full"; n_core: core cells per quadrant side (default max(4, ceil(πR/(4h)))); n_ring: ring element
-    layers (default max(1, round(0.4R/min(h, πR/(4 n_core))))).
+    layers (default max(1, round(0.4R/min(h, πR/(4 n_core))))); axial_size (m): element height along z
+    (default h).
     """
     if not isinstance(geometry, PileGeometry):
         raise TypeError("pile_mesh: geometry must be a PileGeometry")
@@ -354,7 +356,10 @@ def pile_mesh(
     if np.any(area2 <= 0.0):  # pragma: no cover - construction invariant
         raise RuntimeError("pile_mesh: cross-section quadrilateral with non-positive area")
 
-    nz = max(1, round(geometry.length / h))
+    hz = h if axial_size is None else float(axial_size)
+    if not math.isfinite(hz) or hz <= 0.0:
+        raise ValueError(f"pile_mesh: axial_size must be a finite positive length (m), got {axial_size!r}")
+    nz = max(1, round(geometry.length / hz))
     layer_z = geometry.z_tip + geometry.length * np.arange(nz + 1) / nz
     layer_z[-1] = geometry.z_head
     n2 = pts.shape[0]

@@ -304,6 +304,12 @@ class Pile(_Table):
     )
     tip: Literal["flat", "conical"] = Field("flat", description="shape of the pile tip")
     tip_angle: float = Field(60.0, gt=0.0, lt=180.0, description="apex angle of a conical tip, degrees")
+    element_size: float | None = Field(
+        None, gt=0.0, description="pile element size (solid/coupled), m (None: the soil's fine cell size)"
+    )
+    beam_element_length: float | None = Field(
+        None, gt=0.0, description="beam element length of the coupled pile, m (None: one diameter)"
+    )
     material: PileMaterial = Field(default_factory=PileMaterial, description="pile material")
     dummy: Dummy = Field(default_factory=Dummy, description="dummy volume material (coupled pile only)")
 

@@ -130,6 +130,9 @@ class SoilField:
         self.mass_tiny = 0.0
         self.initial_mass = 0.0
         self.rule_counts: dict[str, int] = {}
+        #: contact with a Lagrangian body (:class:`geocel.contact.coupling.ContactCoupling`), applied to the
+        #: trial velocities of every step
+        self.contact = None
         #: accumulated wall time per phase of the step, s
         self.timers: dict[str, float] = dict.fromkeys(("nodes", "cells", "remap", "bookkeeping"), 0.0)
 
@@ -225,6 +228,8 @@ class SoilField:
             dt,
             self.mass_tiny,
         )
+        if self.contact is not None:
+            self.contact.apply(dt)
         ke_half = _kinetic_energy(self.nmass, self.v)
         t1 = time.perf_counter()
         dtc, arg = update_cells(
@@ -272,6 +277,8 @@ class SoilField:
             self.grain_density / (1.0 + E_MAX),
             self.grain_density / (1.0 + E_MIN),
         )
+        if self.contact is not None:
+            self.contact.after_remap()
         t3 = time.perf_counter()
         ke_after = _kinetic_energy(self.nmass, self.v)
         _void_ratio_from_density(

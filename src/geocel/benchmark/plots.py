@@ -1,0 +1,66 @@
+"""Figures of pile runs: q_b(z), q_s(z) and the quasi-static check (kinetic/internal energy) against depth."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import pandas as pd  # noqa: E402
+
+#: limits of the quasi-static check on max(kinetic/internal energy)
+VALID, CAUTION = 0.05, 0.10
+
+
+def plot_curves(
+    curves: dict[str, pd.DataFrame], path: str | Path, reference: pd.DataFrame | None = None, title: str = ""
+) -> Path:
+    """One figure: q_b(z) (MPa), q_s(z) (kPa) and KE/IE(z) of every history in ``curves`` (label → the
+    history table of a run); ``reference``: measured curve with ``depth_m, qb_MPa[, qs_kPa]``."""
+    fig, ax = plt.subplots(1, 3, figsize=(13, 6), sharey=True)
+    for label, h in curves.items():
+        h = h.iloc[1:]
+        z = h["tip_depth"]
+        ax[0].plot(h["qb"] / 1e6, z, label=label)
+        ax[1].plot(h["qs"] / 1e3, z, label=label)
+        ax[2].plot(100 * h["energy_ratio"], z, label=label)
+    if reference is not None:
+        ax[0].plot(reference["qb_MPa"], reference["depth_m"], "k--", lw=2, label="measured")
+        if "qs_kPa" in reference:
+            ax[1].plot(reference["qs_kPa"], reference["depth_m"], "k--", lw=2, label="measured")
+    ax[0].set_xlabel("base resistance $q_b$ (MPa)")
+    ax[1].set_xlabel("average shaft friction $q_s$ (kPa)")
+    ax[2].set_xlabel("kinetic / internal energy (%)")
+    ax[2].axvline(100 * VALID, color="g", ls=":", label="5 % (valid)")
+    ax[2].axvline(100 * CAUTION, color="r", ls=":", label="10 % (invalid)")
+    ax[2].set_xlim(0, 30)
+    ax[0].set_ylabel("pile tip depth (m)")
+    ax[0].invert_yaxis()
+    for a in ax:
+        a.grid(alpha=0.3)
+    ax[0].legend(fontsize=8)
+    ax[2].legend(fontsize=8)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def plot_run(run_dir: str | Path, label: str | None = None) -> Path:
+    """q_b, q_s and energy-ratio figure of one run directory (``pile_curves.png`` in it)."""
+    run_dir = Path(run_dir)
+    h = pd.read_csv(run_dir / "history.csv")
+    return plot_curves({label or run_dir.name: h}, run_dir / "pile_curves.png", title=label or run_dir.name)
+
+
+def verdict(ratio: float) -> str:
+    """Quasi-static verdict of max(KE/IE): valid ≤ 5 %, caution ≤ 10 %, else invalid."""
+    if not ratio == ratio:  # NaN
+        return "unknown"
+    return "valid" if ratio <= VALID else ("caution" if ratio <= CAUTION else "invalid")

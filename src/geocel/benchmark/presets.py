@@ -1,0 +1,64 @@
+"""Embedded scenario presets and their resolution variants.
+
+``deeks-white``: the paper's centrifuge benchmark (see the TOML file next to this module). Resolutions:
+
+==========  ==============  ============  ===========  ==========================================
+resolution  cell at pile    fine radius   fine depth   intent
+==========  ==============  ============  ===========  ==========================================
+demo        0.2 m           1.2 m         z_pen + 2 m  minutes on 2 cores
+coarse      0.15 m          1.5 m         z_pen + 2 m  quick parametric studies
+paper       0.1 m           1.5 m         12 m         about the paper's 200 000 cells
+==========  ==============  ============  ===========  ==========================================
+"""
+
+from __future__ import annotations
+
+import tomllib
+from importlib import resources
+
+from ..config.scenario import Scenario, scenario_from_dict
+
+PRESETS = ("deeks-white",)
+RESOLUTIONS = {
+    "demo": {"fine_size": 0.2, "fine_radius": 1.2, "growth": 1.25},
+    "coarse": {"fine_size": 0.15, "fine_radius": 1.5, "growth": 1.2},
+    "paper": {"fine_size": 0.1, "fine_radius": 1.5, "fine_depth": 12.0, "growth": 1.15},
+}
+
+
+def preset_text(name: str) -> str:
+    """The TOML text of a preset (with its comments)."""
+    if name not in PRESETS:
+        raise ValueError(f"unknown preset {name!r}; available: {', '.join(PRESETS)}")
+    return resources.files(__package__).joinpath(f"{name}.toml").read_text(encoding="utf-8")
+
+
+def preset_dict(
+    name: str,
+    resolution: str | None = None,
+    penetration: float | None = None,
+    velocity: float | None = None,
+    pile: str | None = None,
+    scaling: float | None = None,
+) -> dict:
+    """The preset as a dict, with a resolution and the usual overrides applied."""
+    d = tomllib.loads(preset_text(name))
+    if penetration is not None:
+        d["loading"]["penetration"] = float(penetration)
+    if velocity is not None:
+        d["loading"]["velocity"] = float(velocity)
+    if pile is not None:
+        d["pile"]["type"] = pile
+    if scaling is not None:
+        d["scaling"]["mass_gravity"] = float(scaling)
+    if resolution is not None:
+        if resolution not in RESOLUTIONS:
+            raise ValueError(f"unknown resolution {resolution!r}; available: {', '.join(RESOLUTIONS)}")
+        d["domain"].update(RESOLUTIONS[resolution])
+        if "fine_depth" not in RESOLUTIONS[resolution]:
+            d["domain"]["fine_depth"] = d["loading"]["penetration"] + 2.0
+    return d
+
+
+def preset_scenario(name: str, **kw) -> Scenario:
+    return scenario_from_dict(preset_dict(name, **kw))

@@ -1,0 +1,175 @@
+"""Soil–pile contact in the explicit step: the velocity projection at the soil nodes, the forces it implies on
+the pile, their split into base and shaft, and the quantities users look at (q_b, q_s, soil inside the pile).
+
+Per step (see :mod:`geocel.contact.kernels` for the projection itself):
+
+1. the pile has advanced to v^{n+½} with the contact load of the previous step;
+2. the soil's Lagrangian phase gives trial nodal velocities; :meth:`ContactCoupling.apply` projects those in
+   contact, records the impulse as forces (soil on pile: −m Δv/Δt) and hands them to the pile for its next
+   step; the power of the contact forces goes into the energy balance (work on the soil, friction);
+3. the soil's cell update and remap follow with the projected velocities.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..bodies.pile import ContactLoad, PileBody
+from ..euler.lagrange import node_mass
+from .kernels import exclude_soil, pile_fraction, project_contact, rescale_momentum
+
+
+@dataclass
+class ContactForces:
+    """Soil forces on the modelled part of the pile in the last step, N (``base``/``shaft`` (3,))."""
+
+    base: np.ndarray
+    shaft: np.ndarray
+    soil_power: float = 0.0
+    pile_power: float = 0.0
+
+
+class ContactCoupling:
+    """Contact of one pile with one :class:`geocel.solver.field.SoilField`.
+
+    ``friction``: Coulomb μ (-), ≥ 0. ``band``: contact distance (m, default half the smallest cell size
+    of the grid), see :mod:`geocel.contact.kernels`.
+    """
+
+    def __init__(self, field, pile: PileBody, friction: float, band: float | None = None) -> None:
+        if not (math.isfinite(friction) and friction >= 0.0):
+            raise ValueError(f"friction coefficient μ = {friction!r} must be a finite number ≥ 0")
+        self.field = field
+        self.pile = pile
+        self.mu = float(friction)
+        g = field.grid
+        h = min(g.hx.min(), g.hy.min(), g.hz.min())  # the grid is finest around the pile
+        self.band = 0.5 * h if band is None else float(band)
+        if not (math.isfinite(self.band) and self.band >= 0.0):
+            raise ValueError(f"contact band = {band!r} must be a finite length ≥ 0 (m)")
+        nl = pile.load.layer.shape[0]
+        self._out_layer = np.zeros((g.nx + 1, nl, 4))
+        self._out_node = np.zeros((g.nx + 1, 8))
+        self.forces = ContactForces(np.zeros(3), np.zeros(3))
+        self.friction_work = 0.0
+        self.soil_work = 0.0
+        #: soil volume moved out of the pile by :meth:`after_remap` (m³, modelled part)
+        self.moved_volume = 0.0
+        #: of which it found no free space in the neighbouring cells (compressed there), m³
+        self.overfilled_volume = 0.0
+
+    # --- geometry ---------------------------------------------------------------------------------------
+    def _box(self, pad: float) -> tuple[int, int, int, int, int, int]:
+        """Node index box of the pile's extent in the grid, widened by ``pad``."""
+        s = self.pile.surface()
+        g = self.field.grid
+        R = s.radius + pad
+        i0 = max(int(np.searchsorted(g.x, s.cx - R, "left")) - 1, 0)
+        i1 = min(int(np.searchsorted(g.x, s.cx + R, "right")) + 1, g.nx + 1)
+        j0 = max(int(np.searchsorted(g.y, s.cy - R, "left")) - 1, 0)
+        j1 = min(int(np.searchsorted(g.y, s.cy + R, "right")) + 1, g.ny + 1)
+        k0 = max(int(np.searchsorted(g.z, s.z_apex - pad, "left")) - 1, 0)
+        ztop = s.layer_z[-1] + pad
+        k1 = min(int(np.searchsorted(g.z, ztop, "right")) + 1, g.nz + 1)
+        return i0, i1, j0, j1, k0, k1
+
+    def pile_fraction(self, samples: int = 4) -> np.ndarray:
+        """Fraction of every cell occupied by the pile (nx, ny, nz), by samples³ points per cell."""
+        g = self.field.grid
+        s = self.pile.surface()
+        out = np.zeros(g.shape)
+        i0, i1, j0, j1, k0, k1 = self._box(0.0)
+        pile_fraction(
+            g.x, g.y, g.z, i0, min(i1, g.nx), j0, min(j1, g.ny), k0, min(k1, g.nz),
+            s.cx, s.cy, s.radius, s.z_apex, s.z_shoulder, samples, out,
+        )  # fmt: skip
+        return out
+
+    def remove_soil_inside(self) -> float:
+        """Take the soil out of the volume the pile occupies (a pile wished in place before the geostatic
+        state is built). Returns the removed soil volume of the modelled part, m³."""
+        f = self.field
+        phi_p = self.pile_fraction()
+        before = float(f.Vs.sum())
+        f.Vs[...] = np.minimum(f.Vs, (1.0 - phi_p) * f.volume)
+        return before - float(f.Vs.sum())
+
+    def soil_inside(self) -> float:
+        """Soil volume that overlaps the pile, Σ max(0, min(V_s, V) − (1 − φ_pile) V) over the cells (m³,
+        modelled part): the soil of a cell is counted inside only where the cell's free space cannot hold it
+        (an over-full cell next to the pile is a compression error of the remap, counted there, not soil
+        inside the pile)."""
+        f = self.field
+        phi_p = self.pile_fraction()
+        vs = np.minimum(f.Vs, f.volume)
+        return float(np.maximum(vs - (1.0 - phi_p) * f.volume, 0.0)[f.active3].sum())
+
+    # --- the step ----------------------------------------------------------------------------------------
+    def apply(self, dt: float) -> None:
+        """Project the trial soil velocities (in place) and store the pile's contact load for its next step."""
+        f = self.field
+        g = f.grid
+        s = self.pile.surface()
+        i0, i1, j0, j1, k0, k1 = self._box(self.band)
+        ol = self._out_layer
+        on = self._out_node
+        ol[...] = 0.0
+        on[...] = 0.0
+        project_contact(
+            g.x, g.y, g.z, i0, i1, j0, j1, k0, k1, f.nmass, f.v, f.fix, f.mass_tiny,
+            s.cx, s.cy, s.radius, s.z_apex, s.z_shoulder, self.band, self.mu,
+            s.layer_z, s.layer_v, dt, ol[: i1 - i0], on[: i1 - i0],
+        )  # fmt: skip
+        tot = on[: i1 - i0].sum(axis=0)
+        layer = ol[: i1 - i0].sum(axis=0)
+        self.pile.load = ContactLoad(layer, tot[0:3].copy(), tot[3:6].copy())
+        self.forces = ContactForces(tot[0:3].copy(), tot[3:6].copy(), float(tot[6]), float(tot[7]))
+        # the pile's contact forces do work P_pile Δt; P_soil Δt reaches the soil, the rest is friction
+        self.soil_work += tot[6] * dt
+        self.friction_work += (tot[7] - tot[6]) * dt
+        e = f.energy
+        e["external_work"] += tot[6] * dt
+
+    def after_remap(self) -> None:
+        """Move soil that the remap left inside the pile's volume out of it (mass, stress and state go with
+        it; nodal momentum is kept), so the soil stays out of the pile (:func:`exclude_soil`)."""
+        f = self.field
+        g = f.grid
+        s = self.pile.surface()
+        phi_p = self.pile_fraction()
+        i0, i1, j0, j1, k0, k1 = self._box(0.0)
+        i1, j1, k1 = min(i1 + 1, g.nx), min(j1 + 1, g.ny), min(k1, g.nz)
+        moved = 0.0
+        for _ in range(4):
+            dv, left = exclude_soil(
+                g.x, g.y, g.z, f.active3, i0, i1, j0, j1, k0, k1, s.cx, s.cy, s.radius, s.z_apex,
+                s.z_shoulder, phi_p, f.volume, f.Vs, f.mass, f.stress, f.state, 1e-9,
+            )  # fmt: skip
+            moved += dv
+            self.overfilled_volume += left
+            if dv == 0.0:
+                break
+        if moved > 0.0:
+            m_old = f.nmass.copy()
+            node_mass(f.mass, f.active2d, f.nmass)
+            rescale_momentum(m_old, f.nmass, f.v, f.mass_tiny)
+        self.moved_volume += moved
+
+    # --- what users look at --------------------------------------------------------------------------------
+    def embedded_length(self) -> float:
+        """Length of shaft below the ground surface z = 0 (m), from the shoulder up."""
+        return max(0.0, -self.pile.surface().z_shoulder)
+
+    def qb(self) -> float:
+        """Base resistance q_b = F_base,z / (π D²/4) of the whole pile (Pa, positive = resistance)."""
+        return self.forces.base[2] * self.pile.symmetry_factor / self.pile.geometry.base_area
+
+    def qs(self) -> float:
+        """Average shaft friction q_s = F_shaft,z / (π D × embedded length) (Pa, positive = resistance)."""
+        L = self.embedded_length()
+        if L <= 0.0:
+            return 0.0
+        return self.forces.shaft[2] * self.pile.symmetry_factor / (self.pile.geometry.perimeter * L)

@@ -1,0 +1,302 @@
+"""Eulerian–Lagrangian contact between the soil on the fixed grid and an axisymmetric pile surface.
+
+Enforcement is kinematic (velocity projection at the soil nodes, DESIGN.md §4.5), applied to the trial
+velocities v^{n+½} of the Lagrangian phase:
+
+* a soil node is *in contact* when it carries mass and its signed distance d to the pile surface (negative
+  inside the pile) is at most ``band`` (half a cell: the soil of a cell cut by the pile surface lies next to
+  the surface, so its nodes just outside already touch it);
+* with n the outward surface normal at the nearest surface point and v_r = v − v_pile the relative velocity,
+  a node that approaches (v_r·n < 0) gets the normal impulse per unit mass Δv_n = −v_r·n, so it no longer
+  moves into the pile; a separating node is left free;
+* Coulomb friction: the tangential relative velocity v_t is removed up to |Δv_t| ≤ μ Δv_n (stick), else it
+  is reduced by μ Δv_n (slip);
+* the contact force on the soil node is f = m Δv/Δt; the pile receives −f (equal and opposite, so momentum is
+  conserved exactly). Nodes whose nearest surface point lies on the base (or the cone) count as base contact,
+  the others as shaft contact.
+
+The pile surface in the (r, z) half-plane of its axis (cx, cy) is a convex profile: the shaft r = R above the
+shoulder z_s, and a base segment from the apex (0, z_a) to (R, z_s) (flat base: z_a = z_s). Its velocity is
+given per cross-section level (``layer_z``, ``layer_v``) and interpolated linearly in z, so a deformable pile
+is followed level by level (a rigid pile has the same velocity everywhere).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..materials.tensor import KERNEL_OPTIONS
+
+BASE, SHAFT = 0, 1
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def profile_distance(r, z, R, za, zs):
+    """Signed distance of (r, z) to the pile profile (negative inside), the outward normal (n_r, n_z) at the
+    nearest surface point, and the part that point lies on (BASE or SHAFT)."""
+    # base segment from A = (0, za) to B = (R, zs)
+    ar = R
+    az = zs - za
+    t = (r * ar + (z - za) * az) / (ar * ar + az * az)
+    t = min(max(t, 0.0), 1.0)
+    dr_b = r - t * ar
+    dz_b = z - (za + t * az)
+    db = np.sqrt(dr_b * dr_b + dz_b * dz_b)
+    # shaft ray r = R, z ≥ zs
+    zc = max(z, zs)
+    dr_s = r - R
+    dz_s = z - zc
+    ds = np.sqrt(dr_s * dr_s + dz_s * dz_s)
+    # inside: below the shaft radius and above the base line
+    zb = za + (zs - za) * min(r / R, 1.0)
+    inside = r < R and z > zb
+    # outward normal of the base segment: (az, −ar)/|·| rotated so that it points down/out
+    ln = np.sqrt(ar * ar + az * az)
+    nbr = az / ln
+    nbz = -ar / ln
+    if inside:
+        # nearest face: perpendicular distances to the base line and to the shaft
+        pb = -((r - 0.0) * nbr + (z - za) * nbz)  # > 0 inside
+        ps = R - r
+        if pb <= ps:
+            return -pb, nbr, nbz, BASE
+        return -ps, 1.0, 0.0, SHAFT
+    if db <= ds:
+        if db > 1e-12 * R:
+            return db, dr_b / db, dz_b / db, BASE
+        return 0.0, nbr, nbz, BASE
+    if ds > 1e-12 * R:
+        return ds, dr_s / ds, dz_s / ds, SHAFT
+    return 0.0, 1.0, 0.0, SHAFT
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def _layer_position(z, layer_z):
+    """(lower level index, weight of the upper level) of elevation z in the increasing ``layer_z``."""
+    nl = layer_z.shape[0]
+    if nl == 1 or z <= layer_z[0]:
+        return 0, 0.0
+    if z >= layer_z[nl - 1]:
+        return nl - 2 if nl > 1 else 0, 1.0
+    lo = 0
+    hi = nl - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if layer_z[mid] <= z:
+            lo = mid
+        else:
+            hi = mid
+    return lo, (z - layer_z[lo]) / (layer_z[lo + 1] - layer_z[lo])
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def project_contact(
+    x, y, z, i0, i1, j0, j1, k0, k1, nmass, v, fix, mtiny, cx, cy, R, za, zs, band, mu,
+    layer_z, layer_v, dt, out_layer, out_node,
+):  # fmt: skip
+    """Velocity projection of the soil nodes in contact (module docstring), in place on v.
+
+    Node index box [i0, i1) × [j0, j1) × [k0, k1) (the pile's bounding box plus the band). ``fix`` holds the
+    grid's boundary conditions, re-applied after the projection. Outputs, per unit time (forces, N):
+    ``out_layer`` (nl, 4): per pile level, the force of the soil ON THE PILE shared linearly between the two
+    levels around the contact point: (shaft f_z, shaft radial f·e_r (negative = pressure), base f_z, base
+    radial); ``out_node`` (ni, 8) per node plane i: (F_base xyz, F_shaft xyz on the pile, power into the
+    soil Σ f·v_soil, power of the pile Σ f·v_pile) — summed afterwards to avoid write races.
+    Returns nothing; the number of contact nodes is out_node[:, …] independent."""
+    nl = layer_z.shape[0]
+    for ii in prange(i1 - i0):
+        i = i0 + ii
+        for j in range(j0, j1):
+            dx = x[i] - cx
+            dy = y[j] - cy
+            r = np.sqrt(dx * dx + dy * dy)
+            if r > 1e-14 * R:
+                er_x = dx / r
+                er_y = dy / r
+            else:
+                er_x = 1.0
+                er_y = 0.0
+            for k in range(k0, k1):
+                m = nmass[i, j, k]
+                if m <= mtiny:
+                    continue
+                d, nr, nz, part = profile_distance(r, z[k], R, za, zs)
+                if d > band:
+                    continue
+                # velocity of the pile at the nearest surface level
+                lo, w = _layer_position(z[k] - d * nz, layer_z)
+                hi = min(lo + 1, nl - 1)
+                vpx = (1.0 - w) * layer_v[lo, 0] + w * layer_v[hi, 0]
+                vpy = (1.0 - w) * layer_v[lo, 1] + w * layer_v[hi, 1]
+                vpz = (1.0 - w) * layer_v[lo, 2] + w * layer_v[hi, 2]
+                nx_ = nr * er_x
+                ny_ = nr * er_y
+                rx = v[i, j, k, 0] - vpx
+                ry = v[i, j, k, 1] - vpy
+                rz = v[i, j, k, 2] - vpz
+                vn = rx * nx_ + ry * ny_ + rz * nz
+                if vn >= 0.0:
+                    continue
+                dvn = -vn
+                tx = rx - vn * nx_
+                ty = ry - vn * ny_
+                tz = rz - vn * nz
+                vt = np.sqrt(tx * tx + ty * ty + tz * tz)
+                lim = mu * dvn
+                s = 1.0 if vt <= lim else lim / vt
+                dvx = dvn * nx_ - s * tx
+                dvy = dvn * ny_ - s * ty
+                dvz = dvn * nz - s * tz
+                ox = v[i, j, k, 0]
+                oy = v[i, j, k, 1]
+                oz = v[i, j, k, 2]
+                nvx = 0.0 if fix[i, j, k, 0] else ox + dvx
+                nvy = 0.0 if fix[i, j, k, 1] else oy + dvy
+                nvz = 0.0 if fix[i, j, k, 2] else oz + dvz
+                v[i, j, k, 0] = nvx
+                v[i, j, k, 1] = nvy
+                v[i, j, k, 2] = nvz
+                c = m / dt
+                fx = c * (nvx - ox)  # force on the soil node
+                fy = c * (nvy - oy)
+                fz = c * (nvz - oz)
+                o = 0 if part == BASE else 3
+                out_node[ii, o] -= fx
+                out_node[ii, o + 1] -= fy
+                out_node[ii, o + 2] -= fz
+                out_node[ii, 6] += fx * nvx + fy * nvy + fz * nvz
+                out_node[ii, 7] += fx * vpx + fy * vpy + fz * vpz
+                fr = -(fx * er_x + fy * er_y)
+                c2 = 0 if part == SHAFT else 2
+                out_layer[ii, lo, c2] -= (1.0 - w) * fz
+                out_layer[ii, lo, c2 + 1] += (1.0 - w) * fr
+                if hi != lo:
+                    out_layer[ii, hi, c2] -= w * fz
+                    out_layer[ii, hi, c2 + 1] += w * fr
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def pile_fraction(xe, ye, ze, i0, i1, j0, j1, k0, k1, cx, cy, R, za, zs, n, out):
+    """Fraction of each cell of the box inside the pile, by n³ midpoint samples (out: (nx, ny, nz), only the
+    box is written)."""
+    inv = 1.0 / (n * n * n)
+    for i in prange(i0, i1):
+        for j in range(j0, j1):
+            for k in range(k0, k1):
+                cnt = 0
+                for a in range(n):
+                    px = xe[i] + (a + 0.5) / n * (xe[i + 1] - xe[i]) - cx
+                    for b in range(n):
+                        py = ye[j] + (b + 0.5) / n * (ye[j + 1] - ye[j]) - cy
+                        r = np.sqrt(px * px + py * py)
+                        if r >= R:
+                            continue
+                        zb = za + (zs - za) * r / R
+                        for c in range(n):
+                            pz = ze[k] + (c + 0.5) / n * (ze[k + 1] - ze[k])
+                            if pz > zb:
+                                cnt += 1
+                out[i, j, k] = cnt * inv
+
+
+@njit(**KERNEL_OPTIONS)
+def _give(i, j, k, ti, tj, tk, amount, active3, phi_p, volume, Vs, mass, stress, state, limit):
+    """Move up to ``amount`` of soil volume (with its mass, stress and state, mixed by mass) from cell
+    (i, j, k) to (ti, tj, tk), limited by the free space of the receiver if ``limit``. Returns the volume
+    moved."""
+    nx, ny, nz = Vs.shape
+    if ti < 0 or tj < 0 or tk < 0 or ti >= nx or tj >= ny or tk >= nz or not active3[ti, tj, tk]:
+        return 0.0
+    free = (1.0 - phi_p[ti, tj, tk]) * volume[ti, tj, tk] - Vs[ti, tj, tk]
+    dv = min(amount, free) if limit else amount
+    if dv <= 0.0:
+        return 0.0
+    dm = dv / Vs[i, j, k] * mass[i, j, k]
+    mt = mass[ti, tj, tk]
+    wt = mt / (mt + dm) if mt + dm > 0.0 else 0.0
+    for c in range(6):
+        stress[ti, tj, tk, c] = wt * stress[ti, tj, tk, c] + (1.0 - wt) * stress[i, j, k, c]
+    for c in range(state.shape[3]):
+        state[ti, tj, tk, c] = wt * state[ti, tj, tk, c] + (1.0 - wt) * state[i, j, k, c]
+    Vs[ti, tj, tk] += dv
+    mass[ti, tj, tk] = mt + dm
+    Vs[i, j, k] -= dv
+    mass[i, j, k] -= dm
+    return dv
+
+
+@njit(**KERNEL_OPTIONS)
+def exclude_soil(
+    xe, ye, ze, active3, i0, i1, j0, j1, k0, k1, cx, cy, R, za, zs, phi_p, volume, Vs, mass, stress, state,
+    tol,
+):  # fmt: skip
+    """Move soil that overlaps the pile (V_s > (1 − φ_pile) V + tol·V) into the free space of the neighbouring
+    cells away from the pile surface: first across the nearest surface (below the base, or radially outwards
+    along the dominant axis), then the other outward neighbours; mass goes with it, stress and state are mixed
+    by mass. Receiving cells are filled up to their free space; what finds no room goes across the nearest
+    surface all the same (that cell is then over-full and the remap caps it: the soil is compressed, and the
+    capped volume is counted). Serial sweep over the box (a handful of cells per step). Returns (soil volume
+    moved, of which volume that found no free space) in m³."""
+    moved = 0.0
+    left = 0.0
+    for i in range(i0, i1):
+        for j in range(j0, j1):
+            if not active3[i, j, 0]:
+                continue
+            for k in range(k0, k1):
+                V = volume[i, j, k]
+                ex = Vs[i, j, k] - (1.0 - phi_p[i, j, k]) * V
+                if ex <= tol * V:
+                    continue
+                px = 0.5 * (xe[i] + xe[i + 1]) - cx
+                py = 0.5 * (ye[j] + ye[j + 1]) - cy
+                pz = 0.5 * (ze[k] + ze[k + 1])
+                r = np.sqrt(px * px + py * py)
+                d, nr, nz_, part = profile_distance(r, pz, R, za, zs)
+                sx = 1 if px >= 0.0 else -1
+                sy = 1 if py >= 0.0 else -1
+                down_first = part == BASE and abs(nz_) >= abs(nr)
+                x_first = abs(px) >= abs(py)
+                for o in range(5):
+                    if ex <= tol * V:
+                        break
+                    # order: across the nearest surface, the other radial axis, down, the first radial again
+                    # (the last, unlimited pass goes across the nearest surface)
+                    if down_first:
+                        sel = (2, 0, 1, 2, 2)[o] if x_first else (2, 1, 0, 2, 2)[o]
+                    else:
+                        sel = (0, 1, 2, 0, 0)[o] if x_first else (1, 0, 2, 1, 1)[o]
+                    ti, tj, tk = i, j, k
+                    if sel == 0:
+                        ti = i + sx
+                    elif sel == 1:
+                        tj = j + sy
+                    else:
+                        tk = k - 1
+                    dv = _give(
+                        i, j, k, ti, tj, tk, ex, active3, phi_p, volume, Vs, mass, stress, state, o < 4
+                    )
+                    ex -= dv
+                    moved += dv
+                    if o == 4:
+                        left += dv
+    return moved, left
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def rescale_momentum(m_old, m_new, v, mtiny):
+    """Keep nodal momentum when the nodal masses change from m_old to m_new (in place on v)."""
+    n0, n1, n2 = m_old.shape
+    for i in prange(n0):
+        for j in range(n1):
+            for k in range(n2):
+                if m_new[i, j, k] <= mtiny:
+                    v[i, j, k, 0] = 0.0
+                    v[i, j, k, 1] = 0.0
+                    v[i, j, k, 2] = 0.0
+                elif m_new[i, j, k] != m_old[i, j, k]:
+                    s = m_old[i, j, k] / m_new[i, j, k]
+                    v[i, j, k, 0] *= s
+                    v[i, j, k, 1] *= s
+                    v[i, j, k, 2] *= s

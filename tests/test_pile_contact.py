@@ -1,0 +1,242 @@
+"""Eulerian–Lagrangian contact and the pile in the soil loop (issue 4 checks)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from geocel.bodies.geometry import PileGeometry
+from geocel.bodies.pile import RigidPile, head_displacement, head_velocity
+from geocel.config.materials import Elastic, MohrCoulomb
+from geocel.contact.coupling import ContactCoupling
+from geocel.contact.kernels import BASE, SHAFT, profile_distance
+from geocel.grid import Grid
+from geocel.solver.field import SoilField, SolverSettings
+
+
+def _field(grid, material, gravity=0.0, scaling=1.0):
+    f = SoilField(grid, material, scaling=scaling, settings=SolverSettings(gravity=gravity))
+    f.fill_below(0.0)
+    return f
+
+
+def _jack(f, pile, depth, velocity, ramp, callback=None):
+    t = f.time
+    while head_displacement(t, velocity, ramp) < depth:
+        dt = f.dt
+        pile.advance(dt, head_velocity(t + 0.5 * dt, velocity, ramp))
+        f.step(dt)
+        t += dt
+        if callback is not None:
+            callback()
+
+
+def test_profile_distance_signs_normals_and_parts():
+    R, za, zs = 0.5, -1.0, -1.0  # flat base at z = -1
+    d, nr, nz, part = profile_distance(0.2, -1.3, R, za, zs)  # below the base
+    assert (d, nr, nz, part) == pytest.approx((0.3, 0.0, -1.0, BASE))
+    d, nr, nz, part = profile_distance(0.8, 0.0, R, za, zs)  # beside the shaft
+    assert (d, nr, nz, part) == pytest.approx((0.3, 1.0, 0.0, SHAFT))
+    d, nr, nz, part = profile_distance(0.45, -0.5, R, za, zs)  # inside, nearer the shaft
+    assert (d, nr, nz, part) == pytest.approx((-0.05, 1.0, 0.0, SHAFT))
+    d, nr, nz, part = profile_distance(0.1, -0.98, R, za, zs)  # inside, nearer the base
+    assert (d, nr, nz, part) == pytest.approx((-0.02, 0.0, -1.0, BASE))
+    d, nr, nz, part = profile_distance(0.8, -1.4, R, za, zs)  # beyond the rim: distance to the corner
+    assert d == pytest.approx(0.5) and (nr, nz) == pytest.approx((0.6, -0.8))
+    # a 60° cone: apex on the axis, the surface normal tilted by 30° from the vertical
+    hc = R / np.tan(np.radians(30.0))
+    d, nr, nz, part = profile_distance(0.0, -1.1, R, -1.0, -1.0 + hc)
+    assert part == BASE and d == pytest.approx(0.1) and nz == pytest.approx(-1.0)
+    d, nr, nz, part = profile_distance(0.3, -1.0 + 0.3 / np.tan(np.radians(30.0)) - 0.01, R, -1.0, -1.0 + hc)
+    assert part == BASE and nr == pytest.approx(np.cos(np.radians(30.0))) and nz == pytest.approx(-0.5)
+
+
+def test_head_velocity_ramp_integrates_to_the_displacement():
+    v, ramp = 0.02, 0.05
+    t = np.linspace(0.0, 10.0, 200001)
+    vel = np.array([head_velocity(s, v, ramp) for s in t])
+    disp = np.concatenate([[0.0], np.cumsum(0.5 * (vel[1:] + vel[:-1]) * np.diff(t))])
+    exact = np.array([head_displacement(s, v, ramp) for s in t])
+    np.testing.assert_allclose(disp, exact, atol=1e-9)
+    assert head_displacement(2 * ramp / v, v, ramp) == pytest.approx(ramp)
+    assert head_velocity(0.0, v, ramp) == 0.0 and head_velocity(100.0, v, ramp) == v
+
+
+def test_rigid_circular_punch_on_elastic_soil_matches_boussinesq():
+    """Flat rigid punch of radius a on an elastic half-space: F = 2 a E δ/(1 − ν²) (frictionless)."""
+    a, E, nu = 0.2, 10e6, 0.3
+    g = Grid.graded(
+        radius=2.0, depth=2.0, void=0.1, fine=0.025, fine_radius=0.3, fine_depth=0.3, growth=1.25,
+        symmetry="quarter", cylinder_mask=False,
+    )  # fmt: skip
+    f = _field(g, Elastic(youngs_modulus=E, poisson_ratio=nu, grain_density=2650))
+    pile = RigidPile(PileGeometry(diameter=2 * a, length=0.5, z_tip=0.0), "quarter")
+    c = ContactCoupling(f, pile, friction=0.0)
+    f.contact = c
+    f.geostatic([(0.0, 0.65)], k0=0.5)
+    rows = []
+    _jack(f, pile, 0.002, 0.01, 0.0005, lambda: rows.append((-pile.z_apex, 4 * c.forces.base[2])))
+    r = np.array(rows)
+    sel = r[:, 0] > 0.001
+    k = np.polyfit(r[sel, 0], r[sel, 1], 1)[0]
+    assert k == pytest.approx(2 * a * E / (1 - nu**2), rel=0.10)
+
+
+def test_block_sliding_on_soil_transmits_mu_times_the_normal_force():
+    """A rigid base covering the whole soil surface is pressed in and slid along x: in steady sliding every
+    contact node slips and the tangential contact force is μ times the normal one. The forces are measured
+    independently of the contact bookkeeping, from the momentum change m Δv/Δt of the soil nodes."""
+    mu = 0.4
+    base = Grid.uniform((12, 6, 8), 0.05, origin=(-0.3, 0.0, -0.4))
+    g = Grid(base.x, base.y, np.append(base.z, 0.05), symmetry="half")
+    f = _field(g, Elastic(youngs_modulus=10e6, poisson_ratio=0.3, grain_density=2650))
+    pile = RigidPile(PileGeometry(diameter=10.0, length=0.3, z_tip=0.0), "half")
+    c = ContactCoupling(f, pile, friction=mu)
+    f.contact = c
+    f.geostatic([(0.0, 0.65)], k0=0.5)
+    _jack(f, pile, 0.002, 0.01, 0.0005)
+    interior = f.fix[..., 0] == 0  # the walls hold the soil horizontally: no slip there
+    sums = np.zeros(2)
+    apply = c.apply
+
+    def measured_apply(dt):
+        v0 = f.v.copy()
+        apply(dt)
+        if pile.center[0] > 0.003:
+            dv = (f.v - v0) * f.nmass[..., None] / dt
+            sel = interior & (np.abs(dv).sum(axis=-1) > 0)
+            sums[0] += np.hypot(dv[sel, 0], dv[sel, 1]).sum()
+            sums[1] += dv[sel, 2].sum() * -1.0
+
+    c.apply = measured_apply
+    t = 0.0
+    while t < 0.3:
+        dt = f.dt
+        pile.lateral_velocity[0] = head_velocity(t + 0.5 * dt, 0.02, 0.001)
+        pile.advance(dt, 0.0)
+        f.step(dt)
+        t += dt
+    assert pile.center[0] > 0.005
+    assert sums[0] / sums[1] == pytest.approx(mu, rel=0.02)
+
+
+@pytest.fixture(scope="module")
+def penetration_run():
+    """A rigid pile (D = 0.2 m) jacked 3 D into Mohr–Coulomb sand (S = 100), recording along the way."""
+    D = 0.2
+    g = Grid.graded(
+        radius=1.2, depth=1.5, void=0.3, fine=0.05, fine_radius=0.3, fine_depth=0.9, growth=1.25,
+        symmetry="quarter",
+    )  # fmt: skip
+    mat = MohrCoulomb(
+        youngs_modulus=20e6, poisson_ratio=0.3, friction_angle=35.0, dilatancy_angle=5.0, cohesion=0.0,
+        grain_density=2650.0,
+    )  # fmt: skip
+    f = _field(g, mat, gravity=9.81, scaling=100.0)
+    pile = RigidPile(PileGeometry(diameter=D, length=1.0, z_tip=0.0), "quarter")
+    c = ContactCoupling(f, pile, friction=np.tan(np.radians(20.0)))
+    f.contact = c
+    f.geostatic([(0.0, 0.7)], k0=0.5)
+    m0 = f.soil_mass()
+    rec = {"inside": [], "momentum": []}
+    apply = c.apply
+
+    def checked_apply(dt):
+        p0 = (f.nmass[..., None] * f.v).sum(axis=(0, 1, 2))
+        apply(dt)
+        p1 = (f.nmass[..., None] * f.v).sum(axis=(0, 1, 2))
+        on_pile = c.forces.base + c.forces.shaft
+        rec["momentum"].append(((p1 - p0) / dt, on_pile))
+
+    c.apply = checked_apply
+
+    def every():
+        if f.step_count % 50 == 0:
+            rec["inside"].append((-pile.z_apex, c.soil_inside()))
+
+    _jack(f, pile, 3 * D, 0.5, 0.01, every)
+    rec.update(field=f, pile=pile, contact=c, m0=m0, D=D)
+    return rec
+
+
+def test_soil_stays_out_of_the_pile_during_3D_of_penetration(penetration_run):
+    r = penetration_run
+    D = r["D"]
+    vol = np.pi * D**2 / 16  # quarter model, per metre of embedment
+    worst = max(inside / (vol * max(z, 0.25 * D)) for z, inside in r["inside"])
+    assert worst < 0.01
+    assert -r["pile"].z_apex == pytest.approx(3 * D, abs=1e-3)
+    # no soil was created or destroyed on the way
+    assert r["field"].soil_mass() == pytest.approx(r["m0"], rel=1e-12)
+
+
+def test_contact_forces_are_equal_and_opposite(penetration_run):
+    r = penetration_run
+    big = 0.0
+    for dp, on_pile in r["momentum"]:
+        np.testing.assert_allclose(dp, -on_pile, rtol=1e-9, atol=1e-9 * (1 + np.abs(on_pile).max()))
+        big = max(big, abs(on_pile[2]))
+    assert big > 100.0  # the check saw real forces
+    # and the base carries resistance that rises with depth (q_b > 0)
+    assert r["contact"].qb() > 0.0
+
+
+def _pile_scenario(tmp_path, kind="coupled"):
+    from geocel.config.scenario import scenario_from_dict
+
+    return scenario_from_dict(
+        {
+            "name": f"pile-{kind}",
+            "domain": {
+                "symmetry": "quarter", "radius": 0.6, "soil_depth": 0.8, "void_height": 0.2, "fine_size": 0.1,
+                "fine_radius": 0.3, "fine_depth": 0.4, "growth": 1.3,
+            },
+            "soil": {"model": "mohr-coulomb", "preset": "mohr-coulomb-sand", "layers": [{"top": 0.0, "e0": 0.7}]},
+            "pile": {"type": kind, "diameter": 0.2, "length": 0.6, "initial_embedment": 0.1},
+            "loading": {"velocity": 0.5, "penetration": 0.06, "ramp": 0.01},
+            "scaling": {"mass_gravity": 100},
+            "output": {"history_every": 0.02, "fields_every": 0.03, "directory": str(tmp_path / kind)},
+        }
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("kind", ["rigid", "solid", "coupled"])
+def test_pile_scenarios_run_and_write_q_b_q_s_and_the_governing_element(tmp_path, kind):
+    import pandas as pd
+
+    from geocel.solver.simulation import Simulation
+
+    sc = _pile_scenario(tmp_path, kind)
+    s = Simulation(sc, progress=False).run()
+    assert s["status"] == "finished"
+    assert s["penetration"] == pytest.approx(0.06, abs=1e-3)
+    assert s["tip_depth"] == pytest.approx(0.16, abs=2e-3)
+    gov = {"rigid": "soil", "solid": "pile (solid)", "coupled": "pile (coupled)"}[kind]
+    assert s["dt_governing_body"] == gov
+    h = pd.read_csv(tmp_path / kind / "history.csv")
+    assert {"qb", "qs", "tip_depth", "head_force"} <= set(h.columns)
+    assert (h["qb"].iloc[1:] > 0).all()
+    assert abs(s["soil_mass_error"]) < 1e-10
+    files = {p.name for p in (tmp_path / kind / "fields").iterdir()}
+    assert any(n.startswith("pile") and n.endswith(".vtu") for n in files)
+    summary = json.loads((tmp_path / kind / "summary.json").read_text())
+    assert summary["pile_type"] == kind and summary["symmetry_factor"] == 4
+
+
+def test_pile_run_restarts_from_its_checkpoint(tmp_path):
+    import pandas as pd
+
+    from geocel.solver.simulation import Simulation
+
+    full = Simulation(_pile_scenario(tmp_path / "a"), progress=False, write_fields=False).run()
+    sc = _pile_scenario(tmp_path / "b")
+    first = Simulation(sc, progress=False, write_fields=False).run(stop_after_steps=full["steps"] // 2)
+    assert first["status"] == "interrupted"
+    second = Simulation(sc, progress=False, write_fields=False).run(restart=True)
+    assert second["steps"] == full["steps"]
+    ha = pd.read_csv(tmp_path / "a" / "coupled" / "history.csv")
+    hb = pd.read_csv(tmp_path / "b" / "coupled" / "history.csv")
+    np.testing.assert_allclose(hb["qb"].to_numpy(), ha["qb"].to_numpy(), rtol=1e-9)
+    np.testing.assert_allclose(hb["head_force"].to_numpy(), ha["head_force"].to_numpy(), rtol=1e-9)
