@@ -155,22 +155,109 @@ def element_test_cmd(
 
 @app.command()
 def demo(
-    out: Annotated[Path, typer.Option(help="output directory")] = Path("geocel-demo"),
+    out: Annotated[Path, typer.Option(help="run directory")] = Path("geocel-demo"),
+    penetration: Annotated[float, typer.Option(help="penetration, m")] = 3.0,
+    velocity: Annotated[float, typer.Option(help="jacking velocity, m/s")] = 0.5,
 ) -> None:
-    """Embedded default job. Until the pile solver lands: drained triaxial tests on dense and loose
-    Fraction E sand (the paper's parameters), with plots and key figures."""
-    from .config.materials import Hypoplastic
-    from .element_test.driver import element_test
+    """Embedded default job: the Deeks & White pile, beam–volume coupled, MGS S = 10, demo resolution (0.2 m
+    cells at the pile), jacked 3 m. The jacking is faster than the centrifuge's 2 cm/s (0.5 m/s by default);
+    the run's own kinetic/internal energy check says whether that is still quasi-static."""
+    from .benchmark.plots import plot_run, verdict
+    from .benchmark.presets import preset_scenario
+    from .solver.simulation import Simulation
 
-    mat = Hypoplastic.fraction_e()
-    cases = {"dense": 0.60, "loose": 0.75}
-    for label, e0 in cases.items():
-        console.print(f"[bold]drained triaxial compression, {label} Fraction E (e0 = {e0}, p0 = 100 kPa)")
-        res = element_test("triaxial", mat, e0=e0, p0=100e3, strain=0.4, steps=2000)
-        paths = res.write(out / f"triaxial-{label}")
-        console.print(_key_table(f"{label} sand", res.key_figures()))
-        console.print(f"plots: {paths['png']}\ndata:  {paths['csv']}")
-    console.print(f"[green]demo finished[/green]: results in {out.resolve()}")
+    sc = preset_scenario(
+        "deeks-white",
+        resolution="demo",
+        penetration=penetration,
+        velocity=velocity,
+        pile="coupled",
+        scaling=10,
+    )
+    sim = Simulation(sc, out=out)
+    console.print(f"[bold]geocel demo[/bold]: {sc.name}, coupled pile, S = 10, v = {velocity:g} m/s → {out}")
+    summary = sim.run()
+    _print_summary(summary)
+    fig = plot_run(out, "coupled pile, S = 10 (demo resolution)")
+    ratio = summary["max_energy_ratio"]
+    v = verdict(ratio)
+    console.print(
+        f"quasi-static check: max kinetic/internal energy = {ratio:.2%} → [bold]{v}[/bold] "
+        f"(≤ 5 % valid, ≤ 10 % caution)"
+    )
+    import pandas as pd
+
+    h = pd.read_csv(out / "history.csv").iloc[1:]
+    for z in (1.0, 2.0, 3.0):
+        if z <= h["tip_depth"].max() + 1e-9:
+            qb = float(np.interp(z, h["tip_depth"], h["qb"]))
+            console.print(f"  q_b at {z:g} m: {qb / 1e6:.2f} MPa")
+    console.print(f"plots: {fig}\nhistory: {out / 'history.csv'}\nsummary: {out / 'summary.json'}")
+    if summary["status"] != "finished":
+        raise typer.Exit(1)
+
+
+@app.command("preset")
+def preset_cmd(
+    name: Annotated[str, typer.Argument(help="scenario preset (deeks-white)")],
+    resolution: Annotated[str | None, typer.Option(help="demo | coarse | paper")] = None,
+) -> None:
+    """Print a scenario preset as TOML (``geocel preset deeks-white > my.toml``)."""
+    from .benchmark.presets import preset_dict, preset_text
+
+    try:
+        if resolution is None:
+            sys.stdout.write(preset_text(name))
+        else:
+            import tomli_w
+
+            sys.stdout.write(tomli_w.dumps(preset_dict(name, resolution=resolution)))
+    except ValueError as err:
+        console.print(f"[red]error:[/red] {escape(str(err))}")
+        raise typer.Exit(2) from err
+
+
+@app.command()
+def benchmark(
+    name: Annotated[str, typer.Argument(help="benchmark (deeks-white)")],
+    resolution: Annotated[str, typer.Option(help="demo | coarse | paper")] = "demo",
+    penetration: Annotated[float, typer.Option(help="penetration, m")] = 3.0,
+    velocity: Annotated[float, typer.Option(help="jacking velocity, m/s")] = 0.02,
+    scheduler: Annotated[
+        str | None, typer.Option(help="dask scheduler address (default: local cluster)")
+    ] = None,
+    out: Annotated[Path, typer.Option(help="output directory")] = Path("benchmark-deeks-white"),
+    reference: Annotated[
+        Path | None, typer.Option(help="measured curve CSV: depth_m, qb_MPa[, qs_kPa]")
+    ] = None,
+    variants: Annotated[
+        str | None, typer.Option(help="subset, e.g. 'coupled:10,rigid:100' (kinds rigid|solid|coupled)")
+    ] = None,
+    time_scaling: Annotated[
+        bool, typer.Option(help="also run coupled S = 100 next to coupled S = 1 jacked 10× faster")
+    ] = False,
+) -> None:
+    """The 9 variants (conventional/coupled/rigid × S = 1, 10, 100) on dask.distributed: figure, tables and
+    report in OUT; finished variants are not run again."""
+    from .benchmark.deeks_white import run_benchmark
+
+    if name != "deeks-white":
+        console.print(f"[red]error:[/red] unknown benchmark {name!r} (available: deeks-white)")
+        raise typer.Exit(2)
+    sel = None
+    if variants:
+        try:
+            sel = [(k.strip(), float(s)) for k, s in (v.split(":") for v in variants.split(","))]
+        except ValueError as err:
+            console.print(f"[red]error:[/red] --variants: expected kind:S pairs, got {variants!r}")
+            raise typer.Exit(2) from err
+    res = run_benchmark(
+        out, resolution, penetration, velocity, scheduler, sel, reference, time_scaling, echo=console.print
+    )
+    console.print(res["table"].to_markdown(index=False, floatfmt=".4g"))
+    console.print(f"report: {out / 'report.md'}\nfigure: {out / 'curves.png'}\ntable: {out / 'results.csv'}")
+    if res["failed"]:
+        raise typer.Exit(1)
 
 
 @app.command()
