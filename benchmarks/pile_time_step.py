@@ -4,10 +4,10 @@ Mass-Gravity-Scaling S = 1, 10, 100 on the same soil grid (Deeks & White set-up,
 Soil: Fraction E (hypoplastic, intergranular strain), e0 = 0.60, K0 = 0.5, geostatic state on a graded
 quarter grid (fine cells of ``--soil-cell`` m). Pile: D = 0.6 m, L = 11 m steel (E = 210 GPa, ρ = 7850 kg/m³,
 density × S as ``[scaling] scale_pile_density = true``), volume mesh of ``--pile-cell`` m; coupled pile:
-beam elements one per cross-section level, dummy E = 0.0005 E_steel, ρ = 0.01 ρ_steel. Prints Δt of each
+beam elements of ``--beam-length`` m (default one diameter, as in ``geocel run``), dummy E = 0.0005 E_steel, ρ = 0.01 ρ_steel. Prints Δt of each
 part, the governing one and the step ratio to the conventional pile at S = 1.
 
-    python benchmarks/pile_time_step.py [--soil-cell 0.2] [--pile-cell 0.1]
+    python benchmarks/pile_time_step.py [--soil-cell 0.2] [--pile-cell 0.1] [--beam-length 0.6]
 """
 
 from __future__ import annotations
@@ -42,17 +42,22 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--soil-cell", type=float, default=0.2)
     ap.add_argument("--pile-cell", type=float, default=0.1)
+    ap.add_argument("--beam-length", type=float, default=0.6)
     args = ap.parse_args()
     geom = PileGeometry(diameter=0.6, length=11.0, z_tip=0.0)
     mesh = pile_mesh(geom, args.pile_cell, symmetry="quarter")
-    print(f"pile mesh: {mesh.hexes.shape[0]} hexahedra, {mesh.n_layers} cross-section levels (quarter model)")
+    mesh_c = pile_mesh(geom, args.pile_cell, symmetry="quarter", axial_size=args.beam_length)
+    print(f"solid pile: {mesh.hexes.shape[0]} hexahedra (quarter model)")
+    print(
+        f"coupled pile: {mesh_c.n_layers - 1} beam elements of {args.beam_length} m, {mesh_c.hexes.shape[0]} dummy hexahedra"
+    )
     rows = []
     base = None
     for S in (1.0, 10.0, 100.0):
         dts, where, ncell = soil_dt(S, args.soil_cell)
         solid = SolidBody.from_mesh(mesh, E_STEEL, NU_STEEL, RHO_STEEL * S)
         dt_solid, e_solid = solid.stable_time_step()
-        pile = CoupledPile(mesh, BeamSection.solid_circle(0.6, E_STEEL, NU_STEEL, RHO_STEEL * S))
+        pile = CoupledPile(mesh_c, BeamSection.solid_circle(0.6, E_STEEL, NU_STEEL, RHO_STEEL * S))
         dt_coupled, part, e_beam = pile.stable_time_step()
         dt_dummy, _ = pile.volume_element_time_step()
         for name, dtp, elem in (

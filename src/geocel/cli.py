@@ -189,7 +189,7 @@ def demo(
 
     h = pd.read_csv(out / "history.csv").iloc[1:]
     for z in (1.0, 2.0, 3.0):
-        if z <= h["tip_depth"].max() + 1e-9:
+        if z <= h["tip_depth"].max() + 1e-3:
             qb = float(np.interp(z, h["tip_depth"], h["qb"]))
             console.print(f"  q_b at {z:g} m: {qb / 1e6:.2f} MPa")
     console.print(f"plots: {fig}\nhistory: {out / 'history.csv'}\nsummary: {out / 'summary.json'}")
