@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 from pydantic import ValidationError
@@ -147,13 +148,29 @@ def test_cli_path_kind(tmp_path):
 
 
 def test_cli_demo_runs_and_writes_results(tmp_path):
-    res = runner.invoke(app, ["demo", "--out", str(tmp_path / "demo")])
+    """The embedded default job, cut short (0.2 m instead of 3 m of penetration)."""
+    out = tmp_path / "demo"
+    res = runner.invoke(app, ["demo", "--out", str(out), "--penetration", "0.2"])
     assert res.exit_code == 0, res.output
-    for label in ("dense", "loose"):
-        d = tmp_path / "demo" / f"triaxial-{label}"
-        assert (d / "element_test.csv").is_file() and (d / "element_test.png").is_file()
-    dense = json.loads((tmp_path / "demo" / "triaxial-dense" / "key_figures.json").read_text())["key_figures"]
-    loose = json.loads((tmp_path / "demo" / "triaxial-loose" / "key_figures.json").read_text())["key_figures"]
-    # dense sand peaks above the critical friction angle and dilates; loose sand does not peak
-    assert dense["phi_peak_deg"] > loose["phi_peak_deg"] + 3.0
-    assert dense["dilatancy_angle_peak_deg"] > 0.0 > loose["dilatancy_angle_peak_deg"]
+    assert "quasi-static check" in res.output
+    for name in ("history.csv", "summary.json", "pile_curves.png", "config.toml"):
+        assert (out / name).is_file(), name
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["pile_type"] == "coupled" and summary["mass_gravity_scaling"] == 10
+    assert any(p.suffix == ".vtu" for p in (out / "fields").iterdir())
+    assert abs(summary["soil_mass_error"]) < 1e-10
+
+
+def test_cli_preset_prints_an_editable_scenario(tmp_path):
+    from geocel.config.scenario import load_scenario
+
+    res = runner.invoke(app, ["preset", "deeks-white"])
+    assert res.exit_code == 0, res.output
+    f = tmp_path / "dw.toml"
+    f.write_text(res.output)
+    sc = load_scenario(f)
+    assert sc.pile.diameter == 0.6 and sc.domain.radius == 21.25 and sc.initial.k0 == 0.5
+    assert sc.contact.friction_coefficient(sc.soil.material) == pytest.approx(np.tan(np.radians(20.0)))
+    res = runner.invoke(app, ["preset", "deeks-white", "--resolution", "demo"])
+    assert res.exit_code == 0 and "fine_size = 0.2" in res.output
+    assert runner.invoke(app, ["preset", "nope"]).exit_code == 2

@@ -221,6 +221,10 @@ def test_pile_scenarios_run_and_write_q_b_q_s_and_the_governing_element(tmp_path
     assert abs(s["soil_mass_error"]) < 1e-10
     files = {p.name for p in (tmp_path / kind / "fields").iterdir()}
     assert any(n.startswith("pile") and n.endswith(".vtu") for n in files)
+    if kind == "coupled":  # axial force along the beam: compression, largest at the head where the jack acts
+        last = sorted(n for n in files if n.startswith("beam_forces"))[-1]
+        N = pd.read_csv(tmp_path / kind / "fields" / last)["axial_force_N"].to_numpy()
+        assert (N[1:] < 0).all() and abs(N[-1]) >= abs(N[1])
     summary = json.loads((tmp_path / kind / "summary.json").read_text())
     assert summary["pile_type"] == kind and summary["symmetry_factor"] == 4
 

@@ -350,6 +350,17 @@ class Simulation:
                 self.run_dir.field_path("pile", self._n_fields), pts, hexes, cd, pd
             )
             self._pvd.add(f.time, ppath, part=1)
+            if self.pile.kind == "coupled":  # stress resultants along the beam (whole pile)
+                import pandas as pd
+
+                z, N = self.pile.axial_force()
+                M = self.pile.bending_moment()
+                table = pd.DataFrame(
+                    {"z_m": z, "axial_force_N": N, "moment_x_Nm": M[:, 0], "moment_y_Nm": M[:, 1]}
+                )
+                table.to_csv(
+                    self.run_dir.field_path("beam_forces", self._n_fields).with_suffix(".csv"), index=False
+                )
         self._n_fields += 1
 
     def summary(self) -> dict:
