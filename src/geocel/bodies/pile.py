@@ -77,10 +77,17 @@ def head_displacement(t: float, velocity: float, ramp: float) -> float:
     return 0.5 * velocity * (t - tr / math.pi * math.sin(math.pi * t / tr))
 
 
+def shoulder(geometry: PileGeometry, z_apex: float) -> float:
+    """Elevation of the base rim (m) for the apex at ``z_apex``: the cone height above it, or the apex itself."""
+    return z_apex + (geometry.cone_height if geometry.tip == "conical" else 0.0)
+
+
 class PileBody:
     """Common part: geometry, symmetry, last contact load and the head force."""
 
     kind = "pile"
+    #: Lagrangian elements of the modelled part (hexahedra + beam elements)
+    n_elements = 0
 
     def __init__(self, geometry: PileGeometry, symmetry: str, n_levels: int) -> None:
         self.geometry = geometry
@@ -168,10 +175,10 @@ class RigidPile(PileBody):
 
     def surface(self) -> Surface:
         g = self.geometry
-        zs = self.z_apex + (g.cone_height if g.tip == "conical" else 0.0)
         lz = np.array([self.z_apex, self.z_apex + g.length])
         lv = np.repeat(self.velocity[None, :], 2, axis=0)
-        return Surface(float(self.center[0]), float(self.center[1]), g.radius, self.z_apex, zs, lz, lv)
+        cx, cy = float(self.center[0]), float(self.center[1])
+        return Surface(cx, cy, g.radius, self.z_apex, shoulder(g, self.z_apex), lz, lv)
 
     def stable_time_step(self) -> tuple[float, str, int]:
         return math.inf, "rigid", -1
@@ -211,7 +218,7 @@ class _MeshedPile(PileBody):
         self._ws = np.where(ws > 0, ws / np.maximum(tot[lay], 1e-300), 0.0)
         r = np.hypot(mesh.nodes[:, 0], mesh.nodes[:, 1])
         self._er = np.where(r[:, None] > 0, mesh.nodes[:, :2] / np.maximum(r, 1e-300)[:, None], 0.0)
-        self._base_nodes = np.flatnonzero(lay == 0)
+        self.n_elements = int(mesh.hexes.shape[0])
         self._f = np.zeros((mesh.nodes.shape[0], 3))
 
     def nodal_contact_forces(self) -> np.ndarray:
@@ -237,8 +244,7 @@ class _MeshedPile(PileBody):
         uz = np.bincount(lay, weights=x[:, 2] - m.nodes[:, 2], minlength=nl) / cnt
         lv = np.column_stack([np.bincount(lay, weights=v[:, d], minlength=nl) / cnt for d in range(3)])
         za = g.z_tip + uz[0]
-        zs = za + (g.cone_height if g.tip == "conical" else 0.0)
-        return Surface(0.0, 0.0, g.radius, za, zs, m.layer_z + uz, lv)
+        return Surface(0.0, 0.0, g.radius, za, shoulder(g, za), m.layer_z + uz, lv)
 
 
 class SolidPile(_MeshedPile):
@@ -302,6 +308,7 @@ class CoupledBeamPile(_MeshedPile):
         super().__init__(mesh)
         section = BeamSection.solid_circle(mesh.geometry.diameter, youngs_modulus, poisson_ratio, density)
         self.body = CoupledPile(mesh, section, modulus_ratio, density_ratio)
+        self.n_elements += self.body.beam.n_elements
         self.head_dof = np.zeros((self.body.beam.n_nodes, 6), dtype=bool)
         self.head_dof[-1, 2] = True
 
@@ -327,8 +334,9 @@ class CoupledBeamPile(_MeshedPile):
         b = self.body.beam
         g = self.geometry
         za = g.z_tip + b.u[0, 2]
-        zs = za + (g.cone_height if g.tip == "conical" else 0.0)
-        return Surface(0.0, 0.0, g.radius, za, zs, b.z + b.u[:, 2], np.ascontiguousarray(b.v[:, :3]))
+        return Surface(
+            0.0, 0.0, g.radius, za, shoulder(g, za), b.z + b.u[:, 2], np.ascontiguousarray(b.v[:, :3])
+        )
 
     def stable_time_step(self) -> tuple[float, str, int]:
         return self.body.stable_time_step()

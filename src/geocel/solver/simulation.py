@@ -393,8 +393,7 @@ class Simulation:
             p = self.pile
             out.update(
                 pile_type=p.kind,
-                pile_elements=int(getattr(getattr(p, "mesh", None), "hexes", np.zeros((0, 8))).shape[0])
-                + (p.body.beam.n_elements if p.kind == "coupled" else 0),
+                pile_elements=p.n_elements,
                 symmetry_factor=p.symmetry_factor,
                 velocity=self.velocity,
                 penetration=self.head_displacement(),
@@ -536,16 +535,14 @@ class Simulation:
         return self.summary()
 
     def _due(self, what: str, z: float) -> bool:
-        """Whether the history row / field snapshot is due (time or penetration schedule), and advance it.
-        The schedule is kept as one number: the next multiple of the time interval, or of the penetration
-        interval for pile runs (whichever is finer in practice)."""
+        """Whether the history row / field snapshot is due, and if so advance its counter. The counter n is the
+        number of rows written; row n is due at time n·Δt or at penetration n·Δz, whichever comes first (row 0
+        at the start)."""
         nxt = self._next_history if what == "history" else self._next_fields
         dz = self.history_dz if what == "history" else self.fields_dz
         dtt = self.history_dt if what == "history" else self.fields_dt
-        f = self.field
-        t_due = np.isfinite(dtt) and f.time >= nxt * dtt - 1e-12 * self.duration
-        z_due = np.isfinite(dz) and z >= nxt * dz - 1e-9
-        if not (t_due or z_due) and not (nxt == 0):
+        due = nxt == 0 or self.field.time >= nxt * dtt - 1e-12 * self.duration or z >= nxt * dz - 1e-9
+        if not due:
             return False
         nxt += 1
         if what == "history":
