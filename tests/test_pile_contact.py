@@ -213,18 +213,22 @@ def test_pile_scenarios_run_and_write_q_b_q_s_and_the_governing_element(tmp_path
     assert s["status"] == "finished"
     assert s["penetration"] == pytest.approx(0.06, abs=1e-3)
     assert s["tip_depth"] == pytest.approx(0.16, abs=2e-3)
-    gov = {"rigid": "soil", "solid": "pile (solid)", "coupled": "pile (coupled)"}[kind]
-    assert s["dt_governing_body"] == gov
+    # the soil's Δt governs; a deformable pile with a smaller stable step is subcycled within it
+    assert s["dt_governing_body"] == "soil"
+    if kind != "rigid":
+        assert s["pile_dt"] < s["dt_last"] and s["pile_substeps"] >= 2
+        assert s["pile_steps"] >= s["steps"] * 2
     h = pd.read_csv(tmp_path / kind / "history.csv")
     assert {"qb", "qs", "tip_depth", "head_force"} <= set(h.columns)
     assert (h["qb"].iloc[1:] > 0).all()
     assert abs(s["soil_mass_error"]) < 1e-10
     files = {p.name for p in (tmp_path / kind / "fields").iterdir()}
     assert any(n.startswith("pile") and n.endswith(".vtu") for n in files)
-    if kind == "coupled":  # axial force along the beam: compression, largest at the head where the jack acts
+    if kind == "coupled":  # axial force along the beam: compression (this short fast run is not quasi-static,
+        # so the snapshot's distribution along the beam is not asserted)
         last = sorted(n for n in files if n.startswith("beam_forces"))[-1]
         N = pd.read_csv(tmp_path / kind / "fields" / last)["axial_force_N"].to_numpy()
-        assert (N[1:] < 0).all() and abs(N[-1]) >= abs(N[1])
+        assert (N[1:] < 0).all()
     summary = json.loads((tmp_path / kind / "summary.json").read_text())
     assert summary["pile_type"] == kind and summary["symmetry_factor"] == 4
 
@@ -244,3 +248,29 @@ def test_pile_run_restarts_from_its_checkpoint(tmp_path):
     hb = pd.read_csv(tmp_path / "b" / "coupled" / "history.csv")
     np.testing.assert_allclose(hb["qb"].to_numpy(), ha["qb"].to_numpy(), rtol=1e-9)
     np.testing.assert_allclose(hb["head_force"].to_numpy(), ha["head_force"].to_numpy(), rtol=1e-9)
+
+
+def test_subcycled_solid_pile_matches_the_single_time_step_run(tmp_path):
+    """Subcycling the conventional pile must not change the jacking response: the single global Δt run (the
+    scheme without subcycling, Abaqus' choice) is the reference for the head force and q_b histories."""
+    import pandas as pd
+
+    from geocel.solver.simulation import Simulation
+
+    runs = {}
+    for sub in (False, True):
+        sc = _pile_scenario(tmp_path / str(sub), "solid")
+        sc.solver.pile_subcycling = sub
+        s = Simulation(sc, progress=False, write_fields=False).run()
+        assert s["status"] == "finished"
+        runs[sub] = (s, pd.read_csv(tmp_path / str(sub) / "solid" / "history.csv"))
+    (s0, h0), (s1, h1) = runs[False], runs[True]
+    assert s0["dt_governing_body"] == "pile (solid)" and s0["pile_steps"] == s0["steps"]
+    assert s1["steps"] * 3 < s0["steps"]  # far fewer soil steps ...
+    assert s1["pile_steps"] == pytest.approx(s0["pile_steps"], rel=0.3)  # ... the pile's about the same
+    assert len(h0) == len(h1)
+    a, b = h0["qb"].to_numpy()[1:], h1["qb"].to_numpy()[1:]
+    assert np.all(np.abs(b - a) <= 0.1 * np.abs(a).max())
+    # this short fast run rings (the head force swings by 30×), so the instantaneous head force is not
+    # compared; the work of the jack (its time integral over the displacement) is
+    assert h1["jack_work"].iloc[-1] == pytest.approx(h0["jack_work"].iloc[-1], rel=0.1)

@@ -178,7 +178,11 @@ def demo(
     console.print(f"[bold]geocel demo[/bold]: {sc.name}, coupled pile, S = 10, v = {velocity:g} m/s → {out}")
     summary = sim.run()
     _print_summary(summary)
-    fig = plot_run(out, "coupled pile, S = 10 (demo resolution)")
+    from .benchmark.plots import cell_average
+    from .benchmark.presets import RESOLUTIONS
+
+    width = RESOLUTIONS["demo"]["fine_size"]  # q averaged over one cell of depth (tip crossing cell faces)
+    fig = plot_run(out, "coupled pile, S = 10 (demo resolution)", width)
     ratio = summary["max_energy_ratio"]
     v = verdict(ratio)
     console.print(
@@ -187,7 +191,7 @@ def demo(
     )
     import pandas as pd
 
-    h = pd.read_csv(out / "history.csv").iloc[1:]
+    h = cell_average(pd.read_csv(out / "history.csv"), width)
     for z in (1.0, 2.0, 3.0):
         if z <= h["tip_depth"].max() + 1e-3:
             qb = float(np.interp(z, h["tip_depth"], h["qb"]))

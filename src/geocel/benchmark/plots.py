@@ -8,20 +8,34 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 #: limits of the quasi-static check on max(kinetic/internal energy)
 VALID, CAUTION = 0.05, 0.10
 
 
+def cell_average(h: pd.DataFrame, width: float) -> pd.DataFrame:
+    """The history with q_b and q_s averaged over a window of ``width`` m of tip depth centred on each row
+    (rows are already impulse averages; a window of one grid cell removes the ripple of the tip crossing
+    cell faces, which is a discretisation artefact and not soil behaviour)."""
+    h = h.iloc[1:].copy()
+    if width <= 0.0 or len(h) < 3:
+        return h
+    z = h["tip_depth"].to_numpy()
+    for col in ("qb", "qs"):
+        q = h[col].to_numpy()
+        h[col] = [np.nanmean(q[np.abs(z - zi) <= 0.5 * width]) for zi in z]
+    return h
+
+
 def plot_curves(
     curves: dict[str, pd.DataFrame], path: str | Path, reference: pd.DataFrame | None = None, title: str = ""
 ) -> Path:
     """One figure: q_b(z) (MPa), q_s(z) (kPa) and KE/IE(z) of every history in ``curves`` (label → the
-    history table of a run); ``reference``: measured curve with ``depth_m, qb_MPa[, qs_kPa]``."""
+    history table of a run, without its row at rest); ``reference``: measured curve with ``depth_m, qb_MPa[, qs_kPa]``."""
     fig, ax = plt.subplots(1, 3, figsize=(13, 6), sharey=True)
     for label, h in curves.items():
-        h = h.iloc[1:]
         z = h["tip_depth"]
         ax[0].plot(h["qb"] / 1e6, z, label=label)
         ax[1].plot(h["qs"] / 1e3, z, label=label)
@@ -52,10 +66,11 @@ def plot_curves(
     return path
 
 
-def plot_run(run_dir: str | Path, label: str | None = None) -> Path:
-    """q_b, q_s and energy-ratio figure of one run directory (``pile_curves.png`` in it)."""
+def plot_run(run_dir: str | Path, label: str | None = None, width: float = 0.0) -> Path:
+    """q_b, q_s and energy-ratio figure of one run directory (``pile_curves.png`` in it), q averaged over
+    ``width`` m of depth (:func:`cell_average`)."""
     run_dir = Path(run_dir)
-    h = pd.read_csv(run_dir / "history.csv")
+    h = cell_average(pd.read_csv(run_dir / "history.csv"), width)
     return plot_curves({label or run_dir.name: h}, run_dir / "pile_curves.png", title=label or run_dir.name)
 
 

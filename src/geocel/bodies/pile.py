@@ -220,9 +220,13 @@ class _MeshedPile(PileBody):
         self._er = np.where(r[:, None] > 0, mesh.nodes[:, :2] / np.maximum(r, 1e-300)[:, None], 0.0)
         self.n_elements = int(mesh.hexes.shape[0])
         self._f = np.zeros((mesh.nodes.shape[0], 3))
+        self._f_of = None  # the load that self._f was spread from (substeps reuse it)
 
     def nodal_contact_forces(self) -> np.ndarray:
         """The last contact load spread over the surface nodes (n, 3), N."""
+        if self._f_of is self.load:
+            return self._f
+        self._f_of = self.load
         L = self.load.layer
         lay = self.mesh.layer_of_node
         f = self._f

@@ -398,6 +398,12 @@ class Solver(_Table):
     gravity: float = Field(
         9.81, ge=0.0, le=1.0e4, description="gravitational acceleration (before MGS), m/s²"
     )
+    pile_subcycling: bool = Field(
+        True,
+        description="advance a deformable pile whose stable step is below the soil's with several substeps "
+        "per soil step (the contact load is held over the step); false: one global Δt for soil and pile, as "
+        "in Abaqus/Explicit",
+    )
     max_steps: int | None = Field(None, gt=0, description="stop after this many steps (optional), -")
     kinetic_energy_limit: float | None = Field(
         None, gt=0.0, description="abort when kinetic/internal energy exceeds this ratio (optional), -"

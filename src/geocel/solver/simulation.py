@@ -8,6 +8,7 @@ writes the last good state (kept in memory) as a final snapshot and checkpoint.
 
 from __future__ import annotations
 
+import math
 import time as _time
 from collections.abc import Callable
 from pathlib import Path
@@ -171,6 +172,9 @@ class Simulation:
         self.wall_time = 0.0
         self.rule_counts: dict[str, int] = dict.fromkeys(fl.NAMES.values(), 0)
         self.governing = {"body": "soil", "element": None, "dt": None}
+        self._substeps = 1
+        #: steps taken by the pile (more than the soil's when it is subcycled)
+        self.pile_steps = 0
 
     # --- state ---------------------------------------------------------------------------------------------
     def _snapshot(self) -> dict[str, np.ndarray]:
@@ -206,6 +210,7 @@ class Simulation:
             "rule_counts": self.rule_counts,
             "wall_time": self.wall_time,
             "dt_min": self.dt_min,
+            "pile_steps": self.pile_steps,
         }
         if self.contact is not None:
             c = self.contact
@@ -226,6 +231,7 @@ class Simulation:
         self.rule_counts.update(meta["rule_counts"])
         self.wall_time = meta["wall_time"]
         self.dt_min = meta.get("dt_min", self.dt_min)
+        self.pile_steps = meta.get("pile_steps", self.pile_steps)
         if self.contact is not None and "contact" in meta:
             c = self.contact
             c.soil_work, c.friction_work, c.moved_volume = meta["contact"]
@@ -394,6 +400,11 @@ class Simulation:
             out.update(
                 pile_type=p.kind,
                 pile_elements=p.n_elements,
+                pile_steps=self.pile_steps,
+                pile_dt=self.governing.get("pile_dt"),
+                pile_substeps=self.governing.get("pile_substeps"),
+                pile_subcycling=self.scenario.solver.pile_subcycling,
+                single_dt_wall_time_estimate=self._single_dt_wall_estimate(),
                 symmetry_factor=p.symmetry_factor,
                 velocity=self.velocity,
                 penetration=self.head_displacement(),
@@ -404,19 +415,47 @@ class Simulation:
         return out
 
     def _governing(self) -> float:
-        """Global Δt = min(soil, pile); records which body and element governs."""
+        """Global Δt = min(soil, pile), or the soil's Δt with the pile subcycled (``[solver]
+        pile_subcycling``); records which body and element governs and the pile's substeps per step."""
         f = self.field
         dt = f.dt
         pos = f.governing_cell_position()
         gov = {"body": "soil", "element": {"cell": int(f.governing_cell), "position_m": pos}, "dt": dt}
+        self._substeps = 1
         if self.pile is not None:
             dtp, part, e = self.pile.stable_time_step()
             dtp *= self.scenario.solver.safety_factor
+            gov["pile_dt"] = dtp
+            gov["pile_element"] = {part: int(e)}
             if dtp < dt:
-                dt = dtp
-                gov = {"body": f"pile ({self.pile.kind})", "element": {part: int(e)}, "dt": dt}
+                if self.scenario.solver.pile_subcycling:
+                    self._substeps = math.ceil(dt / dtp * (1.0 + 1e-12))
+                else:
+                    dt = dtp
+                    gov = {**gov, "body": f"pile ({self.pile.kind})", "element": {part: int(e)}, "dt": dt}
+        gov["pile_substeps"] = self._substeps
         self.governing = gov
         return dt
+
+    def _single_dt_wall_estimate(self) -> float:
+        """Wall time (s) the run would have taken with one global Δt (every pile step also a soil step): the
+        measured wall time plus the extra soil steps at this run's measured cost per soil step."""
+        f = self.field
+        soil = sum(f.timers.values())
+        if f.step_count == 0 or soil <= 0.0:
+            return self.wall_time
+        return self.wall_time + max(self.pile_steps - f.step_count, 0) * soil / f.step_count
+
+    def _advance_pile(self, dt: float) -> None:
+        """Advance the pile over the soil step Δt in ``self._substeps`` equal substeps (head velocity at each
+        substep's midpoint; the contact load of the last soil step is held)."""
+        n = self._substeps
+        h = dt / n
+        t0 = self.field.time
+        ramp = self.scenario.loading.ramp
+        for s in range(n):
+            self.pile.advance(h, head_velocity(t0 + (s + 0.5) * h, self.velocity, ramp))
+        self.pile_steps += n
 
     # --- the loop --------------------------------------------------------------------------------------------
     def _done(self) -> bool:
@@ -465,7 +504,6 @@ class Simulation:
         total = self.target if self.has_pile else self.duration
         bar = _Progress(total, "m" if self.has_pile else "s", enabled=self.progress)
         steps_this_run = 0
-        ld = self.scenario.loading
         try:
             while not self._done():
                 z = self.head_displacement()
@@ -475,8 +513,7 @@ class Simulation:
                     self._write_fields()
                 dt = self._governing()
                 if self.pile is not None:
-                    v_head = head_velocity(f.time + 0.5 * dt, self.velocity, ld.ramp)
-                    self.pile.advance(dt, v_head)
+                    self._advance_pile(dt)
                 f.step(dt)
                 if self.pile is not None:
                     fc = self.contact.forces
