@@ -213,11 +213,15 @@ def test_pile_scenarios_run_and_write_q_b_q_s_and_the_governing_element(tmp_path
     assert s["status"] == "finished"
     assert s["penetration"] == pytest.approx(0.06, abs=1e-3)
     assert s["tip_depth"] == pytest.approx(0.16, abs=2e-3)
-    # the soil's Δt governs; a deformable pile with a smaller stable step is subcycled within it
-    assert s["dt_governing_body"] == "soil"
-    if kind != "rigid":
+    # the soil's Δt governs, the solid pile with its smaller stable step is subcycled within it; the coupled
+    # pile is never subcycled, so its beam governs
+    gov = {"rigid": "soil", "solid": "soil", "coupled": "pile (coupled)"}[kind]
+    assert s["dt_governing_body"] == gov
+    if kind == "solid":
         assert s["pile_dt"] < s["dt_last"] and s["pile_substeps"] >= 2
         assert s["pile_steps"] >= s["steps"] * 2
+    elif kind == "coupled":
+        assert s["pile_steps"] == s["steps"]
     h = pd.read_csv(tmp_path / kind / "history.csv")
     assert {"qb", "qs", "tip_depth", "head_force"} <= set(h.columns)
     assert (h["qb"].iloc[1:] > 0).all()

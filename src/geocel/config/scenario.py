@@ -400,9 +400,9 @@ class Solver(_Table):
     )
     pile_subcycling: bool = Field(
         True,
-        description="advance a deformable pile whose stable step is below the soil's with several substeps "
-        "per soil step (the contact load is held over the step); false: one global Δt for soil and pile, as "
-        "in Abaqus/Explicit",
+        description="advance a solid (conventional) pile whose stable step is below the soil's with several "
+        "substeps per soil step (the contact load is held over the step; the coupled pile is never "
+        "subcycled); false: one global Δt for soil and pile, as in Abaqus/Explicit",
     )
     max_steps: int | None = Field(None, gt=0, description="stop after this many steps (optional), -")
     kinetic_energy_limit: float | None = Field(

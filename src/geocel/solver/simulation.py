@@ -428,7 +428,7 @@ class Simulation:
             gov["pile_dt"] = dtp
             gov["pile_element"] = {part: int(e)}
             if dtp < dt:
-                if self.scenario.solver.pile_subcycling:
+                if self.scenario.solver.pile_subcycling and self.pile.subcycling:
                     self._substeps = math.ceil(dt / dtp * (1.0 + 1e-12))
                 else:
                     dt = dtp
@@ -555,9 +555,10 @@ class Simulation:
         except InstabilityError as err:
             self.status = "unstable"
             self.diagnostic = {**err.diagnostic, "message": str(err)}
-            self.wall_time = _time.perf_counter() - t_start
+            wall = _time.perf_counter() - t_start
             self._restore(good)
             self._apply_meta(good_meta)
+            self.wall_time = wall  # the time spent, not the restored snapshot's
             self._write_fields()
             self.checkpoint()
         except KeyboardInterrupt:
