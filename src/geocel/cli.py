@@ -178,7 +178,7 @@ def demo(
     console.print(f"[bold]geocel demo[/bold]: {sc.name}, coupled pile, S = 10, v = {velocity:g} m/s → {out}")
     summary = sim.run()
     _print_summary(summary)
-    from .benchmark.plots import cell_average
+    from .benchmark.plots import cell_average, value_at_depth
     from .benchmark.presets import RESOLUTIONS
 
     width = RESOLUTIONS["demo"]["fine_size"]  # q averaged over one cell of depth (tip crossing cell faces)
@@ -193,8 +193,8 @@ def demo(
 
     h = cell_average(pd.read_csv(out / "history.csv"), width)
     for z in (1.0, 2.0, 3.0):
-        if z <= h["tip_depth"].max() + 1e-3:
-            qb = float(np.interp(z, h["tip_depth"], h["qb"]))
+        qb = value_at_depth(h, "qb", z)
+        if np.isfinite(qb):
             console.print(f"  q_b at {z:g} m: {qb / 1e6:.2f} MPa")
     console.print(f"plots: {fig}\nhistory: {out / 'history.csv'}\nsummary: {out / 'summary.json'}")
     if summary["status"] != "finished":

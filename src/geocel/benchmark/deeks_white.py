@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .plots import cell_average, plot_curves, verdict
+from .plots import cell_average, plot_curves, value_at_depth, verdict
 from .presets import RESOLUTIONS, preset_dict
 
 KINDS = {"solid": "conventional", "coupled": "coupled", "rigid": "rigid"}
@@ -198,9 +198,8 @@ def write_results(out, names, summaries, failed, reference, wall, resolution, pe
                 row["MPE_qs_%"] = mpe(hh["tip_depth"].to_numpy(), hh["qs"].to_numpy() / 1e3,
                                       ref["depth_m"].to_numpy(), ref["qs_kPa"].to_numpy())  # fmt: skip
         if h is not None:
-            hh = h
             for z in (1.0, 2.0, 3.0):
-                row[f"qb_at_{z:g}m_MPa"] = float(np.interp(z, hh["tip_depth"], hh["qb"] / 1e6, right=np.nan))
+                row[f"qb_at_{z:g}m_MPa"] = value_at_depth(h, "qb", z) / 1e6
         rows.append(row)
     table = pd.DataFrame(rows)
     table.to_csv(out / "results.csv", index=False)

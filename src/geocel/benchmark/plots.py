@@ -29,6 +29,15 @@ def cell_average(h: pd.DataFrame, width: float) -> pd.DataFrame:
     return h
 
 
+def value_at_depth(h: pd.DataFrame, column: str, z: float, tol: float = 0.02) -> float:
+    """``column`` of a history interpolated to tip depth z (m); NaN beyond the deepest row by more than
+    ``tol`` m (the tip lags the head by the pile's compression, so the last row is a hair short of z)."""
+    d = h["tip_depth"].to_numpy()
+    if len(d) == 0 or z > d.max() + tol:
+        return float("nan")
+    return float(np.interp(min(z, d.max()), d, h[column].to_numpy()))
+
+
 def plot_curves(
     curves: dict[str, pd.DataFrame], path: str | Path, reference: pd.DataFrame | None = None, title: str = ""
 ) -> Path:
