@@ -36,10 +36,18 @@ class ContactCoupling:
     """Contact of one pile with one :class:`geocel.solver.field.SoilField`.
 
     ``friction``: Coulomb μ (-), ≥ 0. ``band``: contact distance (m, default half the smallest cell size
-    of the grid), see :mod:`geocel.contact.kernels`.
+    of the grid); ``base_band``: contact distance below the base (m, default the smallest cell size), see
+    :mod:`geocel.contact.kernels`.
     """
 
-    def __init__(self, field, pile: PileBody, friction: float, band: float | None = None) -> None:
+    def __init__(
+        self,
+        field,
+        pile: PileBody,
+        friction: float,
+        band: float | None = None,
+        base_band: float | None = None,
+    ) -> None:
         if not (math.isfinite(friction) and friction >= 0.0):
             raise ValueError(f"friction coefficient μ = {friction!r} must be a finite number ≥ 0")
         self.field = field
@@ -48,8 +56,10 @@ class ContactCoupling:
         g = field.grid
         h = min(g.hx.min(), g.hy.min(), g.hz.min())  # the grid is finest around the pile
         self.band = 0.5 * h if band is None else float(band)
-        if not (math.isfinite(self.band) and self.band >= 0.0):
-            raise ValueError(f"contact band = {band!r} must be a finite length ≥ 0 (m)")
+        self.base_band = h if base_band is None else float(base_band)
+        for what, b in (("band", self.band), ("base_band", self.base_band)):
+            if not (math.isfinite(b) and b >= 0.0):
+                raise ValueError(f"contact {what} = {b!r} must be a finite length ≥ 0 (m)")
         nl = pile.load.layer.shape[0]
         self._out_layer = np.zeros((g.nx + 1, nl, 4))
         self._out_node = np.zeros((g.nx + 1, 8))
@@ -76,8 +86,9 @@ class ContactCoupling:
         k1 = min(int(np.searchsorted(g.z, ztop, "right")) + 1, g.nz + 1)
         return i0, i1, j0, j1, k0, k1
 
-    def pile_fraction(self, samples: int = 4) -> np.ndarray:
-        """Fraction of every cell occupied by the pile (nx, ny, nz), by samples³ points per cell."""
+    def pile_fraction(self, samples: int = 8) -> np.ndarray:
+        """Fraction of every cell occupied by the pile (nx, ny, nz), by samples² vertical lines per cell,
+        each exact in z (:func:`pile_fraction`)."""
         g = self.field.grid
         s = self.pile.surface()
         out = np.zeros(g.shape)
@@ -113,14 +124,14 @@ class ContactCoupling:
         f = self.field
         g = f.grid
         s = self.pile.surface()
-        i0, i1, j0, j1, k0, k1 = self._box(self.band)
+        i0, i1, j0, j1, k0, k1 = self._box(max(self.band, self.base_band))
         ol = self._out_layer
         on = self._out_node
         ol[...] = 0.0
         on[...] = 0.0
         project_contact(
             g.x, g.y, g.z, i0, i1, j0, j1, k0, k1, f.nmass, f.v, f.fix, f.mass_tiny,
-            s.cx, s.cy, s.radius, s.z_apex, s.z_shoulder, self.band, self.mu,
+            s.cx, s.cy, s.radius, s.z_apex, s.z_shoulder, self.band, self.base_band, self.mu,
             s.layer_z, s.layer_v, dt, ol[: i1 - i0], on[: i1 - i0],
         )  # fmt: skip
         tot = on[: i1 - i0].sum(axis=0)

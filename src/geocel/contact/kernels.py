@@ -5,7 +5,11 @@ velocities v^{n+½} of the Lagrangian phase:
 
 * a soil node is *in contact* when it carries mass and its signed distance d to the pile surface (negative
   inside the pile) is at most ``band`` (half a cell: the soil of a cell cut by the pile surface lies next to
-  the surface, so its nodes just outside already touch it);
+  the surface, so its nodes just outside already touch it), or ``band_base`` where the nearest surface point
+  lies on the base (one cell: the node plane under the cell that holds the base is always in contact, so
+  that cell moves with the pile and its soil leaves through its lower face at the pile's rate — the rate at
+  which the pile fills it; with half a cell that plane is free for half of every cell the base crosses,
+  the soil under the base lags, and the overlap had to be moved out of the pile without straining it);
 * with n the outward surface normal at the nearest surface point and v_r = v − v_pile the relative velocity,
   a node that approaches (v_r·n < 0) gets the normal impulse per unit mass Δv_n = −v_r·n, so it no longer
   moves into the pile; a separating node is left free;
@@ -92,7 +96,7 @@ def _layer_position(z, layer_z):
 
 @njit(parallel=True, **KERNEL_OPTIONS)
 def project_contact(
-    x, y, z, i0, i1, j0, j1, k0, k1, nmass, v, fix, mtiny, cx, cy, R, za, zs, band, mu,
+    x, y, z, i0, i1, j0, j1, k0, k1, nmass, v, fix, mtiny, cx, cy, R, za, zs, band, band_base, mu,
     layer_z, layer_v, dt, out_layer, out_node,
 ):  # fmt: skip
     """Velocity projection of the soil nodes in contact (module docstring), in place on v.
@@ -122,7 +126,7 @@ def project_contact(
                 if m <= mtiny:
                     continue
                 d, nr, nz, part = profile_distance(r, z[k], R, za, zs)
-                if d > band:
+                if d > (band_base if part == BASE else band):
                     continue
                 # velocity of the pile at the nearest surface level
                 lo, w = _layer_position(z[k] - d * nz, layer_z)
@@ -178,13 +182,16 @@ def project_contact(
 
 @njit(parallel=True, **KERNEL_OPTIONS)
 def pile_fraction(xe, ye, ze, i0, i1, j0, j1, k0, k1, cx, cy, R, za, zs, n, out):
-    """Fraction of each cell of the box inside the pile, by n³ midpoint samples (out: (nx, ny, nz), only the
-    box is written)."""
-    inv = 1.0 / (n * n * n)
+    """Fraction of each cell of the box inside the pile (out: (nx, ny, nz), only the box is written): n²
+    vertical lines per cell (midpoint rule in x, y), each with its exact overlap in z with the pile above
+    the base line. Exact in z, so the fraction of a cell the base enters grows smoothly with the base's
+    elevation, as the remap's soil flux out of that cell does (samples in z would make it jump)."""
+    inv = 1.0 / (n * n)
     for i in prange(i0, i1):
         for j in range(j0, j1):
             for k in range(k0, k1):
-                cnt = 0
+                h = ze[k + 1] - ze[k]
+                acc = 0.0
                 for a in range(n):
                     px = xe[i] + (a + 0.5) / n * (xe[i + 1] - xe[i]) - cx
                     for b in range(n):
@@ -193,11 +200,8 @@ def pile_fraction(xe, ye, ze, i0, i1, j0, j1, k0, k1, cx, cy, R, za, zs, n, out)
                         if r >= R:
                             continue
                         zb = za + (zs - za) * r / R
-                        for c in range(n):
-                            pz = ze[k] + (c + 0.5) / n * (ze[k + 1] - ze[k])
-                            if pz > zb:
-                                cnt += 1
-                out[i, j, k] = cnt * inv
+                        acc += min(max(ze[k + 1] - zb, 0.0), h)
+                out[i, j, k] = acc * inv / h
 
 
 @njit(**KERNEL_OPTIONS)
