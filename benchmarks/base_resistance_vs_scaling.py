@@ -2,6 +2,7 @@
 the base resistance depends on S at the `demo` resolution, with the same cells at the pile as the benchmark).
 
     python benchmarks/base_resistance_vs_scaling.py [--kind rigid] [--scaling 1 10] [--penetration 1.2]
+        [--hourglass K] [--hourglass-stiffness KS]
 
 Prints, per S: wall time, steps, soil volume moved out of the pile by the exclusion step (and the part that
 found no free space), max kinetic/internal energy ratio, then q_b (MPa, averaged over one cell of depth) at
@@ -25,8 +26,11 @@ from geocel.config.scenario import scenario_from_dict
 from geocel.solver.simulation import Simulation
 
 
-def run(kind: str, S: float, penetration: float, root: Path) -> tuple[dict, np.ndarray, np.ndarray]:
+def run(
+    kind: str, S: float, penetration: float, root: Path, solver: dict
+) -> tuple[dict, np.ndarray, np.ndarray]:
     d = preset_dict("deeks-white", resolution="demo", penetration=penetration, velocity=0.5)
+    d.setdefault("solver", {}).update(solver)
     # a 4 m wide, 6 m deep container instead of 21.25 m × 28 m: the base resistance is set near the pile
     d["domain"].update(
         radius=4.0, soil_depth=6.0, void_height=0.6, fine_depth=penetration + 1.5, max_size=0.8
@@ -40,6 +44,7 @@ def run(kind: str, S: float, penetration: float, root: Path) -> tuple[dict, np.n
     h = cell_average(pd.read_csv(root / d["name"] / "history.csv"), 0.2)
     c = sim.contact
     info = {
+        "status": s["status"] if sim.diagnostic is None else f"{s['status']}: {sim.diagnostic['message']}",
         "wall_s": round(time.perf_counter() - t, 1),
         "steps": s["steps"],
         "moved_m3": round(c.moved_volume, 4),
@@ -54,13 +59,22 @@ def main() -> None:
     ap.add_argument("--kind", default="rigid", choices=("rigid", "coupled", "solid"))
     ap.add_argument("--scaling", type=float, nargs="+", default=[1.0, 10.0])
     ap.add_argument("--penetration", type=float, default=1.2)
+    ap.add_argument("--hourglass", type=float, help="viscous hourglass κ (default: the preset's)")
+    ap.add_argument(
+        "--hourglass-stiffness", type=float, help="stiffness hourglass κ_s (default: the preset's)"
+    )
     a = ap.parse_args()
+    solver = {}
+    if a.hourglass is not None:
+        solver["hourglass"] = a.hourglass
+    if a.hourglass_stiffness is not None:
+        solver["hourglass_stiffness"] = a.hourglass_stiffness
     numba.set_num_threads(1)
     depths = np.arange(0.12, a.penetration + 1e-9, 0.12)
     cols = {}
     with tempfile.TemporaryDirectory() as tmp:
         for S in a.scaling:
-            info, z, qb = run(a.kind, S, a.penetration, Path(tmp))
+            info, z, qb = run(a.kind, S, a.penetration, Path(tmp), solver)
             print(f"{a.kind} S = {S:g}: {info}", flush=True)
             cols[S] = np.interp(depths, z, qb) / 1e6
     print("tip depth (m) " + " ".join(f"q_b S={S:g} (MPa)" for S in cols))

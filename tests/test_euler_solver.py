@@ -179,7 +179,8 @@ def test_rigid_rotation_keeps_the_stress_invariants():
     shape = grid.shape
     stress = np.zeros(shape + (6,))
     stress[...] = np.array([-100e3, -50e3, -30e3, 10e3, -5e3, 8e3])
-    state = np.full(shape + (1,), 0.6)
+    state = np.zeros(shape + (13,))  # e, then the stiffness hourglass state
+    state[..., 0] = 0.6
     Vs = vol.copy()
     mass = 1600.0 * vol
     omega = np.array([0.3, -0.2, 1.0])  # rad/s, about an inclined axis
@@ -218,7 +219,11 @@ def test_rigid_rotation_keeps_the_stress_invariants():
             0.06,
             1.2,
             0.05,
+            0.05,
+            1,
+            0.1,
         )
+    np.testing.assert_allclose(state[..., 1:], 0.0, atol=1e-3)  # Pa: a linear field has no hourglass part
     p, qq = invariants_pq(stress.reshape(-1, 6))
     dets = np.linalg.det(vec_to_mat(stress.reshape(-1, 6)))
     np.testing.assert_allclose(p, p0, rtol=1e-6)
@@ -350,3 +355,51 @@ def test_instability_is_reported_with_a_diagnostic_and_the_last_good_state(tmp_p
     assert summary["status"] == "unstable" and summary["diagnostic"]["quantity"] == "kinetic_energy"
     assert (tmp_path / "unstable" / "checkpoint.npz").is_file()
     assert len(list((tmp_path / "unstable" / "fields").glob("soil_*.vtr"))) >= 1
+
+
+def _hourglass_force(amp, nsteps, rho, beta=0.1, dt=1e-4):
+    """Generalised force Q of the ξη mode in x of one elastic cell after ``nsteps`` steps of the nodal
+    velocity field v_x = amp·ξη (a pure hourglass mode: zero velocity gradient), stiffness control only."""
+    h = 0.2
+    grid = Grid.uniform((1, 1, 1), h, origin=(0.0, 0.0, 0.0), symmetry="full")
+    shape = grid.shape
+    vol = grid.cell_volumes()
+    stress = np.zeros(shape + (6,))
+    stress[..., :3] = -100e3  # p = 100 kPa
+    state = np.zeros(shape + (13,))
+    state[..., 0] = 0.6
+    Vs = vol.copy()
+    mass = rho * vol
+    v = np.zeros((2, 2, 2, 3))
+    for a in range(2):
+        for b in range(2):
+            v[a, b, :, 0] = amp * (2 * a - 1) * (2 * b - 1)
+    mat = Elastic(youngs_modulus=50e6, poisson_ratio=0.3)
+    q = np.zeros(shape)
+    hg = np.zeros(shape + (4, 3))
+    modulus = np.zeros(shape)
+    flags = np.zeros(shape, dtype=np.int64)
+    for _ in range(nsteps):
+        update_cells(
+            mat.model_id, mat.to_array(), grid.hx, grid.hy, grid.hz, grid.active2d, Vs, mass, stress, state,
+            v, q, hg, modulus, flags, dt, 0.0, 0.0, 0.0, 0.05, 1, beta,
+        )  # fmt: skip
+    np.testing.assert_allclose(stress[..., :3], -100e3)  # no strain from a pure hourglass field
+    return hg[0, 0, 0, 0, 0] * mass[0, 0, 0], h, modulus[0, 0, 0]
+
+
+def test_stiffness_hourglass_is_rate_and_density_independent_and_limited():
+    """Q_α = κ_s M V^{2/3}/(8 L_e) u_α with u_α = Σ_I h_αI x_I the hourglass displacement (here 8·amp·t),
+    the same for half the velocity over twice the time (rate-independent) and for 100× the density (MGS),
+    and never above β p V^{2/3}."""
+    E, nu, kappa_s = 50e6, 0.3, 0.05
+    M = E * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
+    f1, h, m = _hourglass_force(1e-4, 20, 1600.0)
+    assert m == pytest.approx(M)
+    le = h / np.sqrt(3.0)
+    u = 8 * 1e-4 * 20 * 1e-4
+    assert f1 == pytest.approx(kappa_s * M * h**2 / (8 * le) * u, rel=1e-9)
+    assert _hourglass_force(0.5e-4, 40, 1600.0)[0] == pytest.approx(f1, rel=1e-9)
+    assert _hourglass_force(1e-4, 20, 160000.0)[0] == pytest.approx(f1, rel=1e-9)
+    # far past the limit: |Q| = β p V^{2/3}
+    assert _hourglass_force(1.0, 20, 1600.0, beta=0.1)[0] == pytest.approx(0.1 * 100e3 * h**2, rel=1e-9)

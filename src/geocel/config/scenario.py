@@ -390,7 +390,15 @@ class Solver(_Table):
     """``[solver]``: numerical controls (all optional)."""
 
     safety_factor: float = Field(0.9, gt=0.0, le=1.0, description="Δt = safety_factor × min L_e/c_d, -")
-    hourglass: float = Field(0.05, ge=0.0, le=1.0, description="hourglass-control coefficient, -")
+    hourglass: float = Field(
+        0.005, ge=0.0, le=1.0, description="viscous hourglass control κ (force ∝ ρ c, grows with √S), -"
+    )
+    hourglass_stiffness: float = Field(
+        0.05, ge=0.0, le=1.0, description="stiffness hourglass control κ_s (force ∝ M, rate-independent), -"
+    )
+    hourglass_limit: float = Field(
+        0.1, ge=0.0, le=10.0, description="limit β of the stiffness hourglass force, |Q| ≤ β p V^(2/3), -"
+    )
     bulk_viscosity_linear: float = Field(0.06, ge=0.0, le=1.0, description="linear bulk viscosity b_1, -")
     bulk_viscosity_quadratic: float = Field(
         1.2, ge=0.0, le=10.0, description="quadratic bulk viscosity b_2, -"

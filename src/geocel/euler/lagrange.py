@@ -225,13 +225,44 @@ def _velocity_gradient(v, i, j, k, hx, hy, hz):
 
 @njit(parallel=True, **KERNEL_OPTIONS)
 def update_cells(
-    model, prm, hx, hy, hz, active, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa
+    model,
+    prm,
+    hx,
+    hy,
+    hz,
+    active,
+    Vs,
+    mass,
+    stress,
+    state,
+    v,
+    q,
+    hg,
+    modulus,
+    flags,
+    dt,
+    b1,
+    b2,
+    kappa,
+    kappa_s,
+    hoff,
+    beta,
 ):
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½}.
 
     Also computes the bulk-viscosity pressure q and hourglass forces for the next nodal pass, and returns
     (stable Δt of the cells, index of the cell governing Δt). Cells below :data:`PHI_MIN` are set
     stress-free. (The energies are accounted in :func:`advance_nodes`.)
+
+    Hourglass control has a viscous part (κ, force ∝ ρ c × hourglass velocity) and a stiffness part
+    (κ_s, force ∝ M × accumulated hourglass displacement, limited to β p V^{2/3} per mode and direction,
+    p the cell's mean pressure). The stiffness part is kept per unit soil volume in
+    ``state[..., hoff:hoff + 12]`` so that the remap carries it with the soil like any other state. It does
+    not depend on the density or on the rate, so it is unchanged by MGS and by the jacking velocity, unlike
+    the viscous part, which grows with ρ c ∝ √S. The limit keeps it bounded in the Eulerian setting: under a
+    pile the same soil sees a steady hourglass velocity for a long time, and an unlimited stiffness force
+    then grows without bound (measured: unstable within 0.3 m of penetration). Like friction, the limit
+    scales with the pressure, so the resistance stays a fixed fraction of the stress forces.
     """
     nx, ny, nz = Vs.shape
     n = nx * ny * nz
@@ -261,6 +292,7 @@ def update_cells(
                         for a in range(4):
                             for d in range(3):
                                 hg[i, j, k, a, d] = 0.0
+                                st2[c, hoff + 3 * a + d] = 0.0
                         flags[i, j, k] = 0
                         continue
                     L, qh = _velocity_gradient(v, i, j, k, hx[i], hy[j], hz[k])
@@ -295,12 +327,20 @@ def update_cells(
                     if tr < 0.0:
                         qn += rho * (b2 * le * tr) ** 2
                     q[i, j, k] = qn
-                    # viscous hourglass control: Q_α = κ ρ_eff c V^{2/3} / 8 · q_α, stored per unit cell
-                    # mass (multiplied by the current mass when the forces are gathered)
+                    # hourglass control, stored per unit cell mass (multiplied by the current mass when the
+                    # forces are gathered). Viscous: Q_α = κ ρ c V^{2/3} / 8 · q_α. Stiffness: the rate
+                    # form of Q_α = κ_s M V^{2/3} / (8 L_e) · u_α with u_α the hourglass displacement
+                    # (ρ c → ρ c² Δt / L_e), accumulated per unit soil volume.
                     chg = kappa * cd * vol ** (2.0 / 3.0) / (8.0 * vol)
+                    khg = kappa_s * M * vol ** (2.0 / 3.0) / (8.0 * le * vol) * dt
+                    pm = max(-(s2[c, 0] + s2[c, 1] + s2[c, 2]) / 3.0, 0.0)
+                    smax = beta * pm * vol ** (2.0 / 3.0) / vol
                     for a in range(4):
                         for d in range(3):
-                            hg[i, j, k, a, d] = chg * qh[3 * a + d]
+                            sq = st2[c, hoff + 3 * a + d] + khg * qh[3 * a + d]
+                            sq = min(max(sq, -smax), smax)
+                            st2[c, hoff + 3 * a + d] = sq
+                            hg[i, j, k, a, d] = chg * qh[3 * a + d] + sq / rho
                     # stable step of this cell, with the viscosity correction of the explicit scheme
                     vmax = np.sqrt(L[0] ** 2 + L[4] ** 2 + L[8] ** 2) * le
                     xi_b = b1 - b2 * b2 * le * min(tr, 0.0) / max(cd, 1e-30)

@@ -27,6 +27,8 @@ Material = Elastic | MohrCoulomb | Hypoplastic
 #: band of void ratios that bounds the soil density of a cell in the remap (dust cells near the surface)
 E_MIN, E_MAX = 0.1, 3.0
 
+#: components of the stiffness hourglass control kept after the material state (4 modes × 3 directions)
+HOURGLASS_STATE = 12
 ENERGY_KEYS = (
     "kinetic",
     "internal",
@@ -77,7 +79,9 @@ class SolverSettings:
     """Numerical settings (defaults as in Abaqus/Explicit where a counterpart exists)."""
 
     safety_factor: float = 0.9
-    hourglass: float = 0.05  # κ of the viscous hourglass control
+    hourglass: float = 0.005  # κ of the viscous hourglass control (force ∝ ρ c: grows with √S under MGS)
+    hourglass_stiffness: float = 0.05  # κ_s of the stiffness hourglass control (force ∝ M: rate-independent)
+    hourglass_limit: float = 0.1  # β: |Q_α| ≤ β p V^{2/3} for the stiffness part
     bulk_viscosity_linear: float = 0.06
     bulk_viscosity_quadratic: float = 1.2
     gravity: float = 9.81  # m/s², before scaling
@@ -110,7 +114,10 @@ class SoilField:
         self.Vcur = self.volume.copy()
         self.mass = np.zeros(shape)
         self.stress = np.zeros(shape + (6,))
-        self.state = np.zeros(shape + (nstate,))
+        #: the material's state, then the 12 components of the stiffness hourglass control (per unit soil
+        #: volume, Pa), so that the remap and the contact's exclusion step carry both with the soil
+        self.nstate = nstate
+        self.state = np.zeros(shape + (nstate + HOURGLASS_STATE,))
         self.q = np.zeros(shape)
         self.hg = np.zeros(shape + (4, 3))
         self.modulus = np.zeros(shape)
@@ -176,7 +183,8 @@ class SoilField:
         self.stress[..., 1] = k0 * szz
         self.stress[..., 2] = szz
         state0 = self.material.initial_state(float(layers[0][1]), intergranular)
-        self.state[...] = state0
+        self.state[...] = 0.0
+        self.state[..., : self.nstate] = state0
         self.state[..., 0] = e0[None, None, :]
         node_mass(self.mass, self.active2d, self.nmass)
         full_node = float(rho.max() * self.volume[self.active3].min())
@@ -252,6 +260,9 @@ class SoilField:
             st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic,
             st.hourglass,
+            st.hourglass_stiffness,
+            self.nstate,
+            st.hourglass_limit,
         )
         # a NaN anywhere reaches these sums (this step or the next): no extra pass over the arrays
         if not (np.isfinite(ke) and np.isfinite(dEi)):
