@@ -2,7 +2,7 @@
 the base resistance depends on S at the `demo` resolution, with the same cells at the pile as the benchmark).
 
     python benchmarks/base_resistance_vs_scaling.py [--kind rigid] [--scaling 1 10] [--penetration 1.2]
-        [--hourglass K] [--hourglass-stiffness KS]
+        [--hourglass K] [--hourglass-stiffness KS] [--hourglass-limit BETA]
 
 Prints, per S: wall time, steps, soil volume moved out of the pile by the exclusion step (and the part that
 found no free space), max kinetic/internal energy ratio, then q_b (MPa, averaged over one cell of depth) at
@@ -63,8 +63,13 @@ def main() -> None:
     ap.add_argument(
         "--hourglass-stiffness", type=float, help="stiffness hourglass κ_s (default: the preset's)"
     )
+    ap.add_argument(
+        "--hourglass-limit", type=float, help="limit β of the stiffness part (default: the preset's)"
+    )
     a = ap.parse_args()
     solver = {}
+    if a.hourglass_limit is not None:
+        solver["hourglass_limit"] = a.hourglass_limit
     if a.hourglass is not None:
         solver["hourglass"] = a.hourglass
     if a.hourglass_stiffness is not None:
