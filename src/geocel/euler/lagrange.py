@@ -331,10 +331,11 @@ def update_cells(
                     # forces are gathered). Viscous: Q_α = κ ρ c V^{2/3} / 8 · q_α. Stiffness: the rate
                     # form of Q_α = κ_s M V^{2/3} / (8 L_e) · u_α with u_α the hourglass displacement
                     # (ρ c → ρ c² Δt / L_e), accumulated per unit soil volume.
-                    chg = kappa * cd * vol ** (2.0 / 3.0) / (8.0 * vol)
-                    khg = kappa_s * M * vol ** (2.0 / 3.0) / (8.0 * le * vol) * dt
+                    a23 = vol ** (2.0 / 3.0) / vol  # V^{2/3} per unit volume, shared by the three terms
+                    chg = kappa * cd * a23 / 8.0
+                    khg = kappa_s * M * a23 / (8.0 * le) * dt
                     pm = max(-(s2[c, 0] + s2[c, 1] + s2[c, 2]) / 3.0, 0.0)
-                    smax = beta * pm * vol ** (2.0 / 3.0) / vol
+                    smax = beta * pm * a23
                     for a in range(4):
                         for d in range(3):
                             sq = st2[c, hoff + 3 * a + d] + khg * qh[3 * a + d]
