@@ -84,6 +84,14 @@ def test_rigid_circular_punch_on_elastic_soil_matches_boussinesq():
     sel = r[:, 0] > 0.001
     k = np.polyfit(r[sel, 0], r[sel, 1], 1)[0]
     assert k == pytest.approx(2 * a * E / (1 - nu**2), rel=0.10)
+    # energy: the work ∫F dδ of the punch (quarter model) is stored as elastic strain energy in the soil; the
+    # stress work under the punch once came out negative (−20 × ∫F dδ) when the projected nodes' work was
+    # evaluated with their trial velocity
+    work = 0.25 * np.sum(0.5 * (r[1:, 1] + r[:-1, 1]) * np.diff(r[:, 0]))
+    e = f.energy
+    assert c.soil_work == pytest.approx(work, rel=0.01)
+    assert e["internal"] + e["hourglass"] == pytest.approx(work, rel=0.03)
+    assert abs(f.energy_balance_error()) < 0.02 * work
 
 
 def test_block_sliding_on_soil_transmits_mu_times_the_normal_force():

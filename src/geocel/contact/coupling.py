@@ -19,7 +19,7 @@ import numpy as np
 
 from ..bodies.pile import ContactLoad, PileBody
 from ..euler.lagrange import node_mass
-from .kernels import exclude_soil, pile_fraction, project_contact, rescale_momentum
+from .kernels import contact_work, exclude_soil, pile_fraction, project_contact, rescale_momentum
 
 
 @dataclass
@@ -62,7 +62,10 @@ class ContactCoupling:
                 raise ValueError(f"contact {what} = {b!r} must be a finite length ≥ 0 (m)")
         nl = pile.load.layer.shape[0]
         self._out_layer = np.zeros((g.nx + 1, nl, 4))
-        self._out_node = np.zeros((g.nx + 1, 8))
+        self._out_node = np.zeros((g.nx + 1, 7))
+        self._out_work = np.zeros((g.nx + 1, 5))
+        self._v_old = np.zeros((0, 0, 0, 3))
+        self._box_now: tuple[int, int, int, int, int, int] | None = None
         self.forces = ContactForces(np.zeros(3), np.zeros(3))
         self.friction_work = 0.0
         self.soil_work = 0.0
@@ -119,12 +122,23 @@ class ContactCoupling:
         return float(np.maximum(vs - (1.0 - phi_p) * f.volume, 0.0)[f.active3].sum())
 
     # --- the step ----------------------------------------------------------------------------------------
+    def before_nodes(self) -> None:
+        """Keep v^{n−½} of the nodes the projection may touch (the pile has already moved this step), for
+        the work of the contact forces (:func:`contact_work`)."""
+        self._box_now = i0, i1, j0, j1, k0, k1 = self._box(max(self.band, self.base_band))
+        self._v_old = self.field.v[i0:i1, j0:j1, k0:k1].copy()
+
     def apply(self, dt: float) -> None:
-        """Project the trial soil velocities (in place) and store the pile's contact load for its next step."""
+        """Project the trial soil velocities (in place), account the work of the step's forces at the projected
+        nodes with the velocity they end with, and store the pile's contact load for its next step."""
         f = self.field
         g = f.grid
         s = self.pile.surface()
-        i0, i1, j0, j1, k0, k1 = self._box(max(self.band, self.base_band))
+        if self._box_now is None:  # called outside SoilField.step: v^{n−½} unknown, taken as v_trial
+            self.before_nodes()
+        i0, i1, j0, j1, k0, k1 = self._box_now
+        self._box_now = None
+        v_trial = f.v[i0:i1, j0:j1, k0:k1].copy()
         ol = self._out_layer
         on = self._out_node
         ol[...] = 0.0
@@ -136,13 +150,25 @@ class ContactCoupling:
         )  # fmt: skip
         tot = on[: i1 - i0].sum(axis=0)
         layer = ol[: i1 - i0].sum(axis=0)
+        ow = self._out_work
+        ow[...] = 0.0
+        contact_work(
+            i0, i1, j0, j1, k0, k1, f.hx, f.hy, f.hz, f.active2d, f.Vs, f.mass, f.stress, f.q, f.hg, f.nmass,
+            f.mass_tiny, f.gravity, dt, self._v_old, v_trial, f.v, ow[: i1 - i0],
+        )  # fmt: skip
+        dw = ow[: i1 - i0].sum(axis=0)
+        w_soil = float(dw[4])
         self.pile.load = ContactLoad(layer, tot[0:3].copy(), tot[3:6].copy())
-        self.forces = ContactForces(tot[0:3].copy(), tot[3:6].copy(), float(tot[6]), float(tot[7]))
-        # the pile's contact forces do work P_pile Δt; P_soil Δt reaches the soil, the rest is friction
-        self.soil_work += tot[6] * dt
-        self.friction_work += (tot[7] - tot[6]) * dt
+        self.forces = ContactForces(tot[0:3].copy(), tot[3:6].copy(), w_soil / dt, float(tot[6]))
+        # the pile's contact forces do work P_pile Δt; W_soil reaches the soil, the rest is friction
+        self.soil_work += w_soil
+        self.friction_work += tot[6] * dt - w_soil
         e = f.energy
-        e["external_work"] += tot[6] * dt
+        e["internal"] += dw[0]
+        e["viscous"] += dw[1]
+        e["hourglass"] += dw[2]
+        e["gravity_work"] += dw[3]
+        e["external_work"] += dw[3] + w_soil
 
     def after_remap(self) -> None:
         """Move soil that the remap left inside the pile's volume out of it (mass, stress and state go with

@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..euler.lagrange import node_force
 from ..materials.tensor import KERNEL_OPTIONS
 
 BASE, SHAFT = 0, 1
@@ -105,8 +106,9 @@ def project_contact(
     grid's boundary conditions, re-applied after the projection. Outputs, per unit time (forces, N):
     ``out_layer`` (nl, 4): per pile level, the force of the soil ON THE PILE shared linearly between the two
     levels around the contact point: (shaft f_z, shaft radial f·e_r (negative = pressure), base f_z, base
-    radial); ``out_node`` (ni, 8) per node plane i: (F_base xyz, F_shaft xyz on the pile, power into the
-    soil Σ f·v_soil, power of the pile Σ f·v_pile) — summed afterwards to avoid write races.
+    radial); ``out_node`` (ni, 7) per node plane i: (F_base xyz, F_shaft xyz on the pile, power of the
+    contact forces on the pile's velocity Σ f·v_pile) — summed afterwards to avoid write races. The work on
+    the soil needs v^{n−½} and is evaluated by :func:`contact_work`.
     Returns nothing; the number of contact nodes is out_node[:, …] independent."""
     nl = layer_z.shape[0]
     for ii in prange(i1 - i0):
@@ -169,8 +171,7 @@ def project_contact(
                 out_node[ii, o] -= fx
                 out_node[ii, o + 1] -= fy
                 out_node[ii, o + 2] -= fz
-                out_node[ii, 6] += fx * nvx + fy * nvy + fz * nvz
-                out_node[ii, 7] += fx * vpx + fy * vpy + fz * vpz
+                out_node[ii, 6] += fx * vpx + fy * vpy + fz * vpz
                 fr = -(fx * er_x + fy * er_y)
                 c2 = 0 if part == SHAFT else 2
                 out_layer[ii, lo, c2] -= (1.0 - w) * fz
@@ -178,6 +179,48 @@ def project_contact(
                 if hi != lo:
                     out_layer[ii, hi, c2] -= w * fz
                     out_layer[ii, hi, c2 + 1] += w * fr
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def contact_work(
+    i0, i1, j0, j1, k0, k1, hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, mtiny, gravity, dt,
+    v_old, v_trial, v, out,
+):  # fmt: skip
+    """Energy bookkeeping of the projection, consistent with the central-difference scheme.
+
+    The Lagrangian phase evaluates the work of every force fⁿ with the mean velocity (v^{n−½} + v_trial)/2,
+    but a projected node moves with v^{n+½} ≠ v_trial: under the pile the two differ by more than the
+    pile's rate (the trial velocity is decelerated by the full soil resistance every step), so the stress
+    work was wrong in sign there. Here every force at a projected node does work with (v^{n−½} + v^{n+½})/2:
+    ``out`` (ni, 5) per node plane receives the corrections to the work of the stress, viscous, hourglass
+    and gravity forces and the work of the contact force f_c = m (v^{n+½} − v_trial)/Δt on the soil. Their
+    sum over a node is then exactly ½ m (|v^{n+½}|² − |v^{n−½}|²). ``v_old`` and ``v_trial`` hold the box
+    [i0, i1) × [j0, j1) × [k0, k1) only."""
+    for ii in prange(i1 - i0):
+        i = i0 + ii
+        for j in range(j0, j1):
+            for k in range(k0, k1):
+                m = nmass[i, j, k]
+                if m <= mtiny:
+                    continue
+                jj = j - j0
+                kk = k - k0
+                dx = v[i, j, k, 0] - v_trial[ii, jj, kk, 0]
+                dy = v[i, j, k, 1] - v_trial[ii, jj, kk, 1]
+                dz = v[i, j, k, 2] - v_trial[ii, jj, kk, 2]
+                if dx == 0.0 and dy == 0.0 and dz == 0.0:
+                    continue
+                fs, fq, fh = node_force(i, j, k, hx, hy, hz, active, Vs, mass, stress, q, hg)
+                h = 0.5 * dt
+                out[ii, 0] -= (fs[0] * dx + fs[1] * dy + fs[2] * dz) * h
+                out[ii, 1] -= (fq[0] * dx + fq[1] * dy + fq[2] * dz) * h
+                out[ii, 2] -= (fh[0] * dx + fh[1] * dy + fh[2] * dz) * h
+                out[ii, 3] -= m * gravity * dz * h
+                # f_c Δt · v̄ with f_c Δt = m Δv
+                mx = v_old[ii, jj, kk, 0] + v[i, j, k, 0]
+                my = v_old[ii, jj, kk, 1] + v[i, j, k, 1]
+                mz = v_old[ii, jj, kk, 2] + v[i, j, k, 2]
+                out[ii, 4] += 0.5 * m * (dx * mx + dy * my + dz * mz)
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)

@@ -57,7 +57,7 @@ def node_mass(mass, active, out):
 
 
 @njit(**KERNEL_OPTIONS)
-def _node_force(i, j, k, hx, hy, hz, active, Vs, mass, stress, q, hg):
+def node_force(i, j, k, hx, hy, hz, active, Vs, mass, stress, q, hg):
     """Stress, bulk-viscosity and hourglass forces on node (i, j, k), gathered from its ≤ 8 cells.
 
     ``hg`` holds the hourglass resistance per unit cell mass, so a cell that the remap has (nearly)
@@ -136,7 +136,7 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
                     v[i, j, k, 1] = 0.0
                     v[i, j, k, 2] = 0.0
                     continue
-                fs, fq, fh = _node_force(i, j, k, hx, hy, hz, active, Vs, mass, stress, q, hg)
+                fs, fq, fh = node_force(i, j, k, hx, hy, hz, active, Vs, mass, stress, q, hg)
                 fgz = -m * gravity
                 fx = fs[0] + fq[0] + fh[0]
                 fy = fs[1] + fq[1] + fh[1]

@@ -219,6 +219,8 @@ class SoilField:
         dt = self.dt if dt is None else dt
         tm = self.timers
         t0 = time.perf_counter()
+        if self.contact is not None:
+            self.contact.before_nodes()
         ke, dEi, dEv, dEh, wg = advance_nodes(
             self.hx,
             self.hy,
