@@ -311,5 +311,32 @@ def test_subcycled_solid_pile_matches_the_single_time_step_run(tmp_path):
     a, b = h0["qb"].to_numpy()[1:], h1["qb"].to_numpy()[1:]
     assert np.all(np.abs(b - a) <= 0.1 * np.abs(a).max())
     # this short fast run rings (the head force swings by 30×), so the instantaneous head force is not
-    # compared; the work of the jack (its time integral over the displacement) is
-    assert h1["jack_work"].iloc[-1] == pytest.approx(h0["jack_work"].iloc[-1], rel=0.1)
+    # compared; the work of the jack (its time integral over the displacement) is. Measured: 2139 J with one
+    # Δt; subcycled 2054 J with the last substep's velocity at the contact, 2382 J (+11 %) with the step-mean
+    # velocity, which the quasi-static deeks-white run needs (test below) — the ringing costs work here
+    assert h1["jack_work"].iloc[-1] == pytest.approx(h0["jack_work"].iloc[-1], rel=0.15)
+
+
+def test_subcycled_solid_pile_presents_its_step_mean_velocity_to_the_soil(tmp_path):
+    """With the contact load held over its substeps, the solid pile's velocity at the last substep rings from
+    one soil step to the next (deeks-white demo, S = 1, 16 substeps: the base level's velocity jumped by
+    0.13 m/s per soil step at 0.5 m/s jacking, and the soil under the base lost half its resistance). The soil
+    nodes must follow the pile's displacement over the soil step: the velocity of every level that the
+    contact sees is that displacement / Δt (there: 0.002 m/s per step)."""
+    from geocel.solver.simulation import Simulation
+
+    sim = Simulation(_pile_scenario(tmp_path, "solid"), progress=False, write_fields=False)
+    rows = []
+
+    def record(s):
+        p = s.pile
+        rows.append((s.field.time, *p.surface().layer_v[[0, -1], 2], *p._layer_means(p.body.x)[[0, -1], 2]))
+
+    sim.run(callback=record)
+    t, base, head, z_base, z_head = np.array(rows).T
+    assert sim._substeps >= 2
+    np.testing.assert_allclose(base[1:], np.diff(z_base) / np.diff(t), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(head[1:], np.diff(z_head) / np.diff(t), rtol=1e-9, atol=1e-12)
+    # after a restore (checkpoint) the pile has no step behind it: the instantaneous velocity again
+    sim.pile.restore_arrays(sim.pile.state_arrays())
+    np.testing.assert_array_equal(sim.pile.surface().layer_v, sim.pile._layer_means(sim.pile.body.v))

@@ -455,8 +455,10 @@ class Simulation:
         h = dt / n
         t0 = self.field.time
         ramp = self.scenario.loading.ramp
+        self.pile.begin_step()
         for s in range(n):
             self.pile.advance(h, head_velocity(t0 + (s + 0.5) * h, self.velocity, ramp))
+        self.pile.end_step(dt)
         self.pile_steps += n
 
     # --- the loop --------------------------------------------------------------------------------------------
