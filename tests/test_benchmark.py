@@ -34,3 +34,35 @@ def test_cell_average_removes_a_ripple_of_one_cell_and_keeps_a_linear_trend():
     np.testing.assert_allclose(out["qb"].to_numpy()[inner], trend[inner], rtol=0.05)
     np.testing.assert_allclose(out["qs"].to_numpy()[inner], trend[inner], rtol=0.01)
     assert len(out) == len(z)
+
+
+def test_an_interrupted_variant_continues_from_its_checkpoint(tmp_path, monkeypatch):
+    """A benchmark variant whose process was stopped continues where its checkpoint left it (and ends where an
+    uninterrupted run ends); a finished one is skipped."""
+    from geocel.benchmark.deeks_white import run_variant, variant_dict
+    from geocel.config.scenario import scenario_from_dict
+    from geocel.solver.simulation import Simulation
+
+    args = ("rigid", 100.0, "demo", 0.06, 0.5)
+    sc = scenario_from_dict(variant_dict(*args))
+    first = Simulation(sc, out=tmp_path / "rigid-S100", progress=False, write_fields=False).run(
+        stop_after_steps=20
+    )
+    assert first["status"] == "interrupted"
+    (tmp_path / "rigid-S100" / "summary.json").unlink()  # a killed process writes no summary
+    restarts = []
+    run = Simulation.run
+
+    def spy(self, restart=False, **kw):
+        restarts.append(restart)
+        return run(self, restart=restart, **kw)
+
+    monkeypatch.setattr(Simulation, "run", spy)
+    s = run_variant(args[0], args[1], str(tmp_path), *args[2:])
+    assert restarts == [True]
+    assert s["status"] == "finished" and not s["skipped"]
+    full = Simulation(sc, out=tmp_path / "full", progress=False, write_fields=False).run()
+    assert s["steps"] == full["steps"]
+    assert s["tip_depth"] == pytest.approx(full["tip_depth"], rel=1e-12)
+    again = run_variant(args[0], args[1], str(tmp_path), *args[2:])
+    assert again["skipped"]

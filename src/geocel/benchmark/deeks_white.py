@@ -29,6 +29,18 @@ def variant_name(kind: str, S: float, velocity_factor: float = 1.0) -> str:
     return name if velocity_factor == 1.0 else f"{name}-v{velocity_factor:g}"
 
 
+def variant_dict(
+    kind: str, S: float, resolution: str, penetration: float, velocity: float, velocity_factor: float = 1.0
+) -> dict:
+    """The scenario (as a dict) of one variant: the deeks-white preset with the pile kind and scaling."""
+    d = preset_dict("deeks-white", resolution=resolution, penetration=penetration, velocity=velocity)
+    d["name"] = variant_name(kind, S, velocity_factor)
+    d["pile"]["type"] = kind
+    d["scaling"]["mass_gravity"] = float(S)
+    d["scaling"]["velocity_factor"] = float(velocity_factor)
+    return d
+
+
 def run_variant(
     kind: str,
     S: float,
@@ -39,8 +51,10 @@ def run_variant(
     velocity_factor: float = 1.0,
     threads: int | None = None,
 ) -> dict:
-    """Run (or skip, if finished before) one variant; returns its summary (worker side)."""
-    from ..config.scenario import scenario_from_dict
+    """Run (or skip, if finished before) one variant; returns its summary (worker side). A variant that was
+    interrupted (its process killed, or the machine stopped) continues from its last checkpoint, provided
+    its run directory holds the same resolved scenario."""
+    from ..config.scenario import dump_scenario, scenario_from_dict
     from ..solver.simulation import Simulation
 
     if threads:
@@ -54,14 +68,11 @@ def run_variant(
         s = json.loads(done.read_text())
         if s.get("status") == "finished":
             return {**s, "variant": name, "skipped": True}
-    d = preset_dict("deeks-white", resolution=resolution, penetration=penetration, velocity=velocity)
-    d["name"] = name
-    d["pile"]["type"] = kind
-    d["scaling"]["mass_gravity"] = float(S)
-    d["scaling"]["velocity_factor"] = float(velocity_factor)
-    sim = Simulation(scenario_from_dict(d), out=root, progress=False, write_fields=False)
-    restart = (root / "checkpoint.npz").is_file() and done.is_file()
-    s = sim.run(restart=restart)
+    sc = scenario_from_dict(variant_dict(kind, S, resolution, penetration, velocity, velocity_factor))
+    sim = Simulation(sc, out=root, progress=False, write_fields=False)
+    cfg = root / "config.toml"
+    same = cfg.is_file() and cfg.read_text() == dump_scenario(sc)
+    s = sim.run(restart=same and (root / "checkpoint.npz").is_file())
     return {**s, "variant": name, "skipped": False}
 
 
