@@ -95,7 +95,7 @@ def _machine() -> str:
 
 
 #: relative cost of one step per kind (measured on the demo resolution: the subcycled solid pile adds ≈ 45 %)
-_KIND_COST = {"solid": 1.45, "conventional": 1.45, "coupled": 1.0, "rigid": 0.9}
+_KIND_COST = {"solid": 1.45, "coupled": 1.0, "rigid": 0.9}
 
 
 def _expected_cost(kind: str, S: float, vf: float) -> int:
