@@ -231,16 +231,12 @@ class _MeshedPile(PileBody):
         self._f = np.zeros((mesh.nodes.shape[0], 3))
         self._f_of = None  # the load that self._f was spread from (substeps reuse it)
 
-    def _step_layer_load(self) -> np.ndarray:
-        """The per-level load (n_levels, 4) that acts over this step: the last contact load."""
-        return self.load.layer
-
     def nodal_contact_forces(self) -> np.ndarray:
-        """The load of this step (:meth:`_step_layer_load`) spread over the surface nodes (n, 3), N."""
+        """The last contact load spread over the surface nodes (n, 3), N."""
         if self._f_of is self.load:
             return self._f
         self._f_of = self.load
-        L = self._step_layer_load()
+        L = self.load.layer
         lay = self.mesh.layer_of_node
         f = self._f
         shaft_z = self._ws * L[lay, 0]
@@ -285,8 +281,6 @@ class SolidPile(_MeshedPile):
         self.head = mesh.head_nodes
         #: mean velocity of every level over the last soil step (set by end_step), m/s
         self._v_step: np.ndarray | None = None
-        #: the contact load per level of the soil step before the last, N
-        self._prev_layer = np.zeros_like(self.load.layer)
         self._x_step = np.zeros((mesh.n_layers, 3))
 
     def surface(self) -> Surface:
@@ -299,31 +293,17 @@ class SolidPile(_MeshedPile):
     # substep: with the contact load held over the substeps, that velocity rings from step to step (measured
     # in the deeks-white demo at S = 1, 16 substeps: the base level's velocity jumped by 0.13 m/s per soil
     # step at 0.5 m/s jacking, against 0.001 m/s for the coupled pile) and the soil under the base was
-    # hammered by it.
+    # hammered by it. This does not make the staggered coupling stable: deeper, with more soil in contact,
+    # it oscillates again (0.47 m/s per step at 1.25 m). Applying the mean of the last two soil steps' loads
+    # (tried) moved that oscillation to a three-step period (0.20 m/s per step at 0.72 m) and lowered q_b.
     def begin_step(self) -> None:
         self._x_step = self._layer_means(self.body.x)
 
     def end_step(self, dt: float) -> None:
         self._v_step = (self._layer_means(self.body.x) - self._x_step) / dt
 
-    # The contact load of one soil step acts on the pile over the next, and the soil follows the pile that it
-    # moved: a staggered coupling whose gain grows with the soil mass in contact against the pile mass that
-    # answers within one soil step. Past ≈ 1 m of embedment in the deeks-white demo at S = 1 it oscillated
-    # from one soil step to the next (base level velocity jumping by 0.47 m/s per step, q_b by ±5.2 MPa).
-    # Applying the mean of the last two loads cancels that two-step mode (measured from the same state:
-    # 0.02 m/s, ±0.74 MPa) and changes a smooth load only by half a step's lag.
-    def _step_layer_load(self) -> np.ndarray:
-        L = 0.5 * (self.load.layer + self._prev_layer)
-        self._prev_layer[...] = self.load.layer
-        return L
-
-    def state_arrays(self) -> dict[str, np.ndarray]:
-        return {**super().state_arrays(), "load_prev_layer": self._prev_layer.copy()}
-
     def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
         super().restore_arrays(arrays)
-        # checkpoints written before the averaging: take the previous load as the last one
-        self._prev_layer[...] = arrays.get("load_prev_layer", arrays["load_layer"])
         self._v_step = None
 
     def _arrays(self) -> dict[str, np.ndarray]:
