@@ -281,7 +281,7 @@ def write_results(out, names, summaries, failed, reference, wall, resolution, pe
     ]
     lines += _time_scaling_lines(hist, summaries)
     if failed:
-        lines += ["", "## Failed variants", ""] + [f"- {k}: {v}" for k, v in failed.items()]
+        lines += ["", "## Failed or not run", ""] + [f"- {k}: {v}" for k, v in failed.items()]
     (out / "report.md").write_text("\n".join(lines) + "\n")
     return {"table": table, "failed": failed}
 
