@@ -32,11 +32,15 @@ from .solid import SolidBody
 @dataclass
 class ContactLoad:
     """Soil forces on the modelled part of the pile, N: ``layer`` (nl, 4) per level (shaft f_z, shaft radial,
-    base f_z, base radial; radial negative = pressure), ``base`` and ``shaft`` vectors (3,)."""
+    base f_z, base radial; radial negative = pressure), ``base`` and ``shaft`` vectors (3,); ``tied`` (nl, 2)
+    the soil mass (kg) that the projection tied to each level's vertical motion (shaft, base), and ``dt`` the
+    soil step (s) the load was found in (see :class:`SolidPile`)."""
 
     layer: np.ndarray
     base: np.ndarray
     shaft: np.ndarray
+    tied: np.ndarray | None = None
+    dt: float = 0.0
 
     @classmethod
     def zero(cls, n_levels: int) -> ContactLoad:
@@ -142,17 +146,24 @@ class PileBody:
             load_layer=self.load.layer.copy(),
             load_base=self.load.base.copy(),
             load_shaft=self.load.shaft.copy(),
-            scalars=np.array([self.head_force, self.time, self.work]),
+            load_tied=np.zeros((0, 2)) if self.load.tied is None else self.load.tied.copy(),
+            scalars=np.array([self.head_force, self.time, self.work, self.load.dt]),
         )
         return out
 
     def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
         for k, v in self._arrays().items():
             v[...] = arrays[k]
+        tied = arrays.get("load_tied")
+        sc = [float(t) for t in arrays["scalars"]]
         self.load = ContactLoad(
-            arrays["load_layer"].copy(), arrays["load_base"].copy(), arrays["load_shaft"].copy()
+            arrays["load_layer"].copy(),
+            arrays["load_base"].copy(),
+            arrays["load_shaft"].copy(),
+            tied.copy() if tied is not None and tied.size else None,
+            sc[3] if len(sc) > 3 else 0.0,
         )
-        self.head_force, self.time, self.work = (float(t) for t in arrays["scalars"])
+        self.head_force, self.time, self.work = sc[:3]
 
 
 class RigidPile(PileBody):
@@ -279,36 +290,70 @@ class SolidPile(_MeshedPile):
         fixed[sym["y"], 1] = True
         self.fixed = fixed
         self.head = mesh.head_nodes
-        #: mean velocity of every level over the last soil step (set by end_step), m/s
-        self._v_step: np.ndarray | None = None
-        self._x_step = np.zeros((mesh.n_layers, 3))
+        nl = mesh.n_layers
+        #: mean velocity of every level over the last two soil steps (set by end_step; NaN: none yet), m/s
+        self._v_step = np.full((nl, 3), np.nan)
+        self._v_prev = np.full((nl, 3), np.nan)
+        self._x_step = np.zeros((nl, 3))
+        self._damper: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def surface(self) -> Surface:
         s = self._surface_from(self.body.x, self.body.v)
-        if self._v_step is not None:
-            s.layer_v = self._v_step
+        if np.all(np.isfinite(self._v_step)):
+            s.layer_v = self._v_step.copy()
         return s
 
-    # The soil's nodes must follow the pile's displacement over the soil step, not its velocity at the last
-    # substep: with the contact load held over the substeps, that velocity rings from step to step (measured
-    # in the deeks-white demo at S = 1, 16 substeps: the base level's velocity jumped by 0.13 m/s per soil
-    # step at 0.5 m/s jacking, against 0.001 m/s for the coupled pile) and the soil under the base was
-    # hammered by it. This does not make the staggered coupling stable: deeper, with more soil in contact,
-    # it oscillates again (0.47 m/s per step at 1.25 m). Applying the mean of the last two soil steps' loads
-    # (tried) moved that oscillation to a three-step period (0.20 m/s per step at 0.72 m) and lowered q_b.
+    # The pile runs several substeps per soil step with the soil's load held, one step behind. Two measures
+    # keep that coupling stable:
+    # 1. the soil's nodes follow the pile's displacement over the soil step, not its velocity at the last
+    #    substep (that velocity rings from step to step: 0.13 m/s per step at the base in the deeks-white demo
+    #    at S = 1, 16 substeps, against 0.001 m/s for the coupled pile);
+    # 2. the soil that the projection ties to a level is not a held force but answers the level's velocity
+    #    within the step: f = G − (m_tied/Δt)(v − v_seen), the soil's linearised response (a node projected
+    #    to v ends the step with m Δv/Δt less force). G = F + m_tied a_seen is the held load without the
+    #    tied soil's inertia (F = G − m_tied a for the tied nodes, so over a step of constant acceleration
+    #    the pile receives F exactly). Held alone, F fed the tied soil's inertia back one step late, with a
+    #    gain ≈ m_tied / (the pile's mass that answers within one step): once that passed one (≈ 1.3 m
+    #    embedded in the demo) the base velocity jumped by 0.47 m/s and q_b by ± 5.2 MPa every step.
+    #    The damper is implicit in the substep (:meth:`SolidBody.step`), so it holds for any mass ratio.
+    #    ``benchmarks/staggered_coupling_1d.py`` shows both in one dimension.
     def begin_step(self) -> None:
         self._x_step = self._layer_means(self.body.x)
+        self._damper = self._interface_damper()
+
+    def _interface_damper(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(G (n, 3) N, damping c (n, 3) N s/m, velocity v_seen (n, 3) m/s) on the surface nodes for the next
+        soil step, or None before two steps are known (see the comment above)."""
+        ld = self.load
+        if ld.tied is None or ld.dt <= 0.0 or not np.all(np.isfinite(self._v_prev)):
+            return None
+        lay = self.mesh.layer_of_node
+        a = (self._v_step[:, 2] - self._v_prev[:, 2]) / ld.dt
+        m_node = self._ws * ld.tied[lay, 0] + self._wb * ld.tied[:, 1].sum()
+        g = self.nodal_contact_forces().copy()
+        g[:, 2] += self._ws * ld.tied[lay, 0] * a[lay] + self._wb * float(ld.tied[:, 1] @ a)
+        c = np.zeros_like(g)
+        c[:, 2] = m_node / ld.dt
+        v_seen = np.zeros_like(g)
+        v_seen[:, 2] = self._v_step[lay, 2]
+        return g, c, v_seen
 
     def end_step(self, dt: float) -> None:
-        self._v_step = (self._layer_means(self.body.x) - self._x_step) / dt
+        self._v_prev[...] = self._v_step
+        self._v_step[...] = (self._layer_means(self.body.x) - self._x_step) / dt
 
     def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
-        super().restore_arrays(arrays)
-        self._v_step = None
+        # checkpoints of versions before the interface damper have no step velocities: start without them
+        nan = np.full_like(self._v_step, np.nan)
+        super().restore_arrays({"v_step": nan, "v_prev": nan, **arrays})
+        self._damper = None
 
     def _arrays(self) -> dict[str, np.ndarray]:
         b = self.body
-        return {"x": b.x, "v": b.v, "stress": b.stress, "q": b.q, "rate_v": b.rate_v, "volume": b.volume}
+        return {
+            "x": b.x, "v": b.v, "stress": b.stress, "q": b.q, "rate_v": b.rate_v, "volume": b.volume,
+            "v_step": self._v_step, "v_prev": self._v_prev,
+        }  # fmt: skip
 
     def stable_time_step(self) -> tuple[float, str, int]:
         dt, e = self.body.stable_time_step()
@@ -316,8 +361,12 @@ class SolidPile(_MeshedPile):
 
     def advance(self, dt: float, v_head: float) -> None:
         b = self.body
-        f_ext = self.nodal_contact_forces()
-        b.step(dt, f_ext=f_ext, fixed=self.fixed, prescribed_velocity=(self.head, (np.nan, np.nan, -v_head)))
+        pv = (self.head, (np.nan, np.nan, -v_head))
+        if self._damper is None:
+            b.step(dt, f_ext=self.nodal_contact_forces(), fixed=self.fixed, prescribed_velocity=pv)
+        else:
+            g, c, v_seen = self._damper
+            b.step(dt, f_ext=g, fixed=self.fixed, prescribed_velocity=pv, damper=(c, v_seen))
         # the jack force: what the elements exert on the head nodes (compression pushes them up)
         self.head_force = float(b._f[self.head, 2].sum())
         self.work += self.head_force * v_head * dt

@@ -565,12 +565,14 @@ class SolidBody:
         f_ext: np.ndarray | None = None,
         fixed: np.ndarray | None = None,
         prescribed_velocity: tuple[np.ndarray, np.ndarray] | None = None,
+        damper: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> None:
         """One central-difference step of Δt (s).
 
         f_ext (n, 3) N: external nodal forces at tⁿ; fixed (n, 3) bool: DOFs held at zero velocity;
         prescribed_velocity (nodes, values): values (k, 3) or (3,) in m/s imposed as v^{n+½} on the given
-        nodes, a NaN component leaves that DOF free.
+        nodes, a NaN component leaves that DOF free; damper (c, v₀), both (n, 3): an external force
+        −c (v^{n+½} − v₀) (c in N s/m ≥ 0), taken implicitly (stable for any c).
         """
         dt = float(dt)
         if not math.isfinite(dt) or dt <= 0.0:
@@ -578,7 +580,12 @@ class SolidBody:
         f = self.internal_forces()
         if f_ext is not None:
             f = f + f_ext
-        self.v += (dt / self.mass)[:, None] * f
+        if damper is None:
+            self.v += (dt / self.mass)[:, None] * f
+        else:
+            c, v0 = damper
+            m = self.mass[:, None]
+            self.v[...] = (m * self.v + dt * (f + c * v0)) / (m + dt * c)
         if fixed is not None:
             self.v[fixed] = 0.0
         if prescribed_velocity is not None:

@@ -61,7 +61,7 @@ class ContactCoupling:
             if not (math.isfinite(b) and b >= 0.0):
                 raise ValueError(f"contact {what} = {b!r} must be a finite length ≥ 0 (m)")
         nl = pile.load.layer.shape[0]
-        self._out_layer = np.zeros((g.nx + 1, nl, 4))
+        self._out_layer = np.zeros((g.nx + 1, nl, 6))
         self._out_node = np.zeros((g.nx + 1, 7))
         self._out_work = np.zeros((g.nx + 1, 5))
         self._v_old = np.zeros((0, 0, 0, 3))
@@ -158,7 +158,9 @@ class ContactCoupling:
         )  # fmt: skip
         dw = ow[: i1 - i0].sum(axis=0)
         w_soil = float(dw[4])
-        self.pile.load = ContactLoad(layer, tot[0:3].copy(), tot[3:6].copy())
+        self.pile.load = ContactLoad(
+            layer[:, :4].copy(), tot[0:3].copy(), tot[3:6].copy(), layer[:, 4:].copy(), dt
+        )
         self.forces = ContactForces(tot[0:3].copy(), tot[3:6].copy(), w_soil / dt, float(tot[6]))
         # the pile's contact forces do work P_pile Δt; W_soil reaches the soil, the rest is friction
         self.soil_work += w_soil
@@ -189,10 +191,14 @@ class ContactCoupling:
             self.overfilled_volume += left
             if dv == 0.0:
                 break
-        if moved > 0.0:
-            m_old = f.nmass.copy()
-            node_mass(f.mass, f.active2d, f.nmass)
-            rescale_momentum(m_old, f.nmass, f.v, f.mass_tiny)
+        if moved > 0.0:  # only the nodes of the box's cells and their neighbours (receivers) change mass
+            a0, a1 = max(i0 - 1, 0), min(i1 + 2, g.nx + 1)
+            b0, b1 = max(j0 - 1, 0), min(j1 + 2, g.ny + 1)
+            c0, c1 = max(k0 - 1, 0), min(k1 + 2, g.nz + 1)
+            nb = np.s_[a0:a1, b0:b1, c0:c1]
+            m_old = f.nmass[nb].copy()
+            node_mass(f.mass, f.active2d, f.nmass, a0, a1, b0, b1, c0, c1)
+            rescale_momentum(m_old, f.nmass[nb], f.v[nb], f.mass_tiny)
         self.moved_volume += moved
 
     # --- what users look at --------------------------------------------------------------------------------

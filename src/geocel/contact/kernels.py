@@ -104,9 +104,11 @@ def project_contact(
 
     Node index box [i0, i1) × [j0, j1) × [k0, k1) (the pile's bounding box plus the band). ``fix`` holds the
     grid's boundary conditions, re-applied after the projection. Outputs, per unit time (forces, N):
-    ``out_layer`` (nl, 4): per pile level, the force of the soil ON THE PILE shared linearly between the two
+    ``out_layer`` (nl, 6): per pile level, the force of the soil ON THE PILE shared linearly between the two
     levels around the contact point: (shaft f_z, shaft radial f·e_r (negative = pressure), base f_z, base
-    radial); ``out_node`` (ni, 7) per node plane i: (F_base xyz, F_shaft xyz on the pile, power of the
+    radial), and the soil mass tied to the level's vertical motion (kg; shaft, base): m n_z² of a sliding
+    node, m of a sticking one (∂f_z/∂v_pile,z = −that/Δt, used by the solid pile's interface damper);
+    ``out_node`` (ni, 7) per node plane i: (F_base xyz, F_shaft xyz on the pile, power of the
     contact forces on the pile's velocity Σ f·v_pile) — summed afterwards to avoid write races. The work on
     the soil needs v^{n−½} and is evaluated by :func:`contact_work`.
     Returns nothing; the number of contact nodes is out_node[:, …] independent."""
@@ -174,11 +176,14 @@ def project_contact(
                 out_node[ii, 6] += fx * vpx + fy * vpy + fz * vpz
                 fr = -(fx * er_x + fy * er_y)
                 c2 = 0 if part == SHAFT else 2
+                ma = 0.0 if fix[i, j, k, 2] else (m if s == 1.0 else m * nz * nz)
                 out_layer[ii, lo, c2] -= (1.0 - w) * fz
                 out_layer[ii, lo, c2 + 1] += (1.0 - w) * fr
+                out_layer[ii, lo, 4 + c2 // 2] += (1.0 - w) * ma
                 if hi != lo:
                     out_layer[ii, hi, c2] -= w * fz
                     out_layer[ii, hi, c2 + 1] += w * fr
+                    out_layer[ii, hi, 4 + c2 // 2] += w * ma
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)

@@ -40,12 +40,16 @@ def characteristic_length(hx, hy, hz):
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def node_mass(mass, active, out):
-    """Lumped nodal mass: an eighth of each adjacent active cell's soil mass."""
+def node_mass(mass, active, out, i0=0, i1=-1, j0=0, j1=-1, k0=0, k1=-1):
+    """Lumped nodal mass: an eighth of each adjacent active cell's soil mass, for the nodes of the box
+    [i0, i1) × [j0, j1) × [k0, k1) (default, −1: all nodes)."""
     nx, ny, nz = mass.shape
-    for i in prange(nx + 1):
-        for j in range(ny + 1):
-            for k in range(nz + 1):
+    i1 = nx + 1 if i1 < 0 else i1
+    j1 = ny + 1 if j1 < 0 else j1
+    k1 = nz + 1 if k1 < 0 else k1
+    for i in prange(i0, i1):
+        for j in range(j0, j1):
+            for k in range(k0, k1):
                 s = 0.0
                 for ci in range(max(i - 1, 0), min(i + 1, nx)):
                     for cj in range(max(j - 1, 0), min(j + 1, ny)):

@@ -382,6 +382,9 @@ class Simulation:
             "steps": f.step_count,
             "time": f.time,
             "wall_time": self.wall_time,
+            # where the soil step's time goes (s, this process): Lagrangian nodes (+ contact), cells
+            # (constitutive update), remap (+ exclusion of soil from the pile), bookkeeping
+            "soil_phase_times": {k: round(v, 3) for k, v in f.timers.items()},
             "dt_governing_body": self.governing["body"],
             "dt_governing_element": self.governing["element"],
             "dt_governing_value": self.governing["dt"],
