@@ -239,7 +239,8 @@ def write_results(out, names, summaries, failed, reference, wall, resolution, pe
         "# Deeks & White (2006) pile-jacking benchmark",
         "",
         f"Resolution `{resolution}`, penetration {penetration:g} m, jacking velocity {velocity:g} m/s; "
-        f"machine: {_machine()}; total wall time {wall:.0f} s. Errors (MPE) against {ref_name if ref is not None else 'nothing'}; "
+        f"machine: {_machine()}; wall time of the invocation that wrote this report {wall:.0f} s (variants "
+        f"finished before are not run again: their own wall times are in the table). Errors (MPE) against {ref_name if ref is not None else 'nothing'}; "
         "`MPE_qb_vs_own_S1_%`: the error of the scaling alone, against the same pile at S = 1.",
         "Forces of the quarter model are multiplied by 4 (symmetry). q_b and q_s are averaged over one "
         f"grid cell of tip depth ({width:g} m): the ripple of the tip crossing cell faces is removed.",
