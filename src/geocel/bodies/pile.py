@@ -268,12 +268,13 @@ class _MeshedPile(PileBody):
             [np.bincount(lay, weights=a[:, d], minlength=m.n_layers) / cnt for d in range(3)]
         )
 
-    def _surface_from(self, x: np.ndarray, v: np.ndarray) -> Surface:
+    def _surface_from(self, x: np.ndarray, layer_v: np.ndarray) -> Surface:
+        """Surface of the mesh at nodal positions x with the level velocities ``layer_v`` (n_levels, 3)."""
         m = self.mesh
         g = self.geometry
         uz = self._layer_means(x - m.nodes)[:, 2]
         za = g.z_tip + uz[0]
-        return Surface(0.0, 0.0, g.radius, za, shoulder(g, za), m.layer_z + uz, self._layer_means(v))
+        return Surface(0.0, 0.0, g.radius, za, shoulder(g, za), m.layer_z + uz, layer_v)
 
 
 class SolidPile(_MeshedPile):
@@ -298,10 +299,10 @@ class SolidPile(_MeshedPile):
         self._damper: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def surface(self) -> Surface:
-        s = self._surface_from(self.body.x, self.body.v)
-        if np.all(np.isfinite(self._v_step)):
-            s.layer_v = self._v_step.copy()
-        return s
+        known = np.all(np.isfinite(self._v_step))
+        return self._surface_from(
+            self.body.x, self._v_step.copy() if known else self._layer_means(self.body.v)
+        )
 
     # The pile runs several substeps per soil step with the soil's load held, one step behind. Two measures
     # keep that coupling stable:
