@@ -201,6 +201,9 @@ def contact_work(
     and gravity forces and the work of the contact force f_c = m (v^{n+½} − v_trial)/Δt on the soil. Their
     sum over a node is then exactly ½ m (|v^{n+½}|² − |v^{n−½}|²). ``v_old`` and ``v_trial`` hold the box
     [i0, i1) × [j0, j1) × [k0, k1) only."""
+    rx = 0.25 / hx
+    ry = 0.25 / hy
+    rz = 0.25 / hz
     for ii in prange(i1 - i0):
         i = i0 + ii
         for j in range(j0, j1):
@@ -215,7 +218,7 @@ def contact_work(
                 dz = v[i, j, k, 2] - v_trial[ii, jj, kk, 2]
                 if dx == 0.0 and dy == 0.0 and dz == 0.0:
                     continue
-                fs, fq, fh = node_force(i, j, k, hx, hy, hz, active, Vs, mass, stress, q, hg)
+                fs, fq, fh = node_force(i, j, k, rx, ry, rz, active, Vs, mass, stress, q, hg)
                 h = 0.5 * dt
                 out[ii, 0] -= (fs[0] * dx + fs[1] * dy + fs[2] * dz) * h
                 out[ii, 1] -= (fq[0] * dx + fq[1] * dy + fq[2] * dz) * h

@@ -61,8 +61,9 @@ def node_mass(mass, active, out, i0=0, i1=-1, j0=0, j1=-1, k0=0, k1=-1):
 
 
 @njit(**KERNEL_OPTIONS)
-def node_force(i, j, k, hx, hy, hz, active, Vs, mass, stress, q, hg):
-    """Stress, bulk-viscosity and hourglass forces on node (i, j, k), gathered from its ≤ 8 cells.
+def node_force(i, j, k, rx, ry, rz, active, Vs, mass, stress, q, hg):
+    """Stress, bulk-viscosity and hourglass forces on node (i, j, k), gathered from its ≤ 8 cells;
+    ``rx, ry, rz`` = 1/(4h) per cell (the shape-function gradient factors, so no division per visit).
 
     ``hg`` holds the hourglass resistance per unit cell mass, so a cell that the remap has (nearly)
     emptied exerts a proportionally small force. Returns (f_σ, f_q, f_hg) as three 3-tuples."""
@@ -85,9 +86,9 @@ def node_force(i, j, k, hx, hy, hz, active, Vs, mass, stress, q, hg):
             for ck in range(max(k - 1, 0), min(k + 1, nz)):
                 vs = Vs[ci, cj, ck]
                 zeta = 1.0 if ck < k else -1.0
-                gx = xi / (4.0 * hx[ci])
-                gy = eta / (4.0 * hy[cj])
-                gz = zeta / (4.0 * hz[ck])
+                gx = xi * rx[ci]
+                gy = eta * ry[cj]
+                gz = zeta * rz[ck]
                 pq = q[ci, cj, ck]
                 px += vs * pq * gx
                 py += vs * pq * gy
@@ -126,6 +127,9 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
     dissipation, work of gravity)."""
     nx, ny, nz = Vs.shape
     acc = np.zeros((nx + 1, 5))
+    rx = 0.25 / hx
+    ry = 0.25 / hy
+    rz = 0.25 / hz
     for i in prange(nx + 1):
         ke = 0.0
         wi = 0.0
@@ -140,7 +144,7 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
                     v[i, j, k, 1] = 0.0
                     v[i, j, k, 2] = 0.0
                     continue
-                fs, fq, fh = node_force(i, j, k, hx, hy, hz, active, Vs, mass, stress, q, hg)
+                fs, fq, fh = node_force(i, j, k, rx, ry, rz, active, Vs, mass, stress, q, hg)
                 fgz = -m * gravity
                 fx = fs[0] + fq[0] + fh[0]
                 fy = fs[1] + fq[1] + fh[1]

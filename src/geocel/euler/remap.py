@@ -33,23 +33,34 @@ VS_TINY = 1.0e-12  # soil volume fraction below which a cell is treated as empty
 
 @njit(inline="always", **KERNEL_OPTIONS)
 def _vanleer(a, b):
-    """van Leer-limited slope (harmonic mean)."""
-    if a * b <= 0.0:
-        return 0.0
-    return 2.0 * a * b / (a + b)
+    """van Leer-limited slope (harmonic mean). Branch-free (the quotient is discarded where a·b ≤ 0), so
+    that a loop over components vectorises."""
+    ab = a * b
+    r = 2.0 * ab / (a + b)
+    return r if ab > 0.0 else 0.0
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
-def _transverse_gradient(Vs, Vcur, active3, i, j, k):
+def _transverse_gradient(phi, active3, i, j, k):
     """Largest difference of the soil fraction across the line through cell (i, j, k) (the two
     transverse directions of the sweep)."""
-    n1, n2, _ = Vs.shape
+    n1, n2, _ = phi.shape
     g = 0.0
     if 0 < i < n1 - 1 and active3[i - 1, j, k] and active3[i + 1, j, k]:
-        g = abs(Vs[i + 1, j, k] / Vcur[i + 1, j, k] - Vs[i - 1, j, k] / Vcur[i - 1, j, k])
+        g = abs(phi[i + 1, j, k] - phi[i - 1, j, k])
     if 0 < j < n2 - 1 and active3[i, j - 1, k] and active3[i, j + 1, k]:
-        g = max(g, abs(Vs[i, j + 1, k] / Vcur[i, j + 1, k] - Vs[i, j - 1, k] / Vcur[i, j - 1, k]))
+        g = max(g, abs(phi[i, j + 1, k] - phi[i, j - 1, k]))
     return g
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def soil_fraction(Vs, Vcur, phi):
+    """φ = V_s / V_cur of every cell (the snapshot a sweep reads its transverse neighbours from)."""
+    n1, n2, n3 = Vs.shape
+    for i in prange(n1):
+        for j in range(n2):
+            for k in range(n3):
+                phi[i, j, k] = Vs[i, j, k] / Vcur[i, j, k]
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -78,42 +89,61 @@ def volume_change(hx, hy, hz, active, v, dt, Vs, Vcur):
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def sweep_cells(h1, h2, active3, v, comp, dt, Vs, Vcur, mass, stress, state, fbar, open_end, rho_lo, rho_hi):
+def sweep_cells(
+    h1, h2, active3, v, comp, dt, phi3, Vs, Vcur, mass, stress, state, fbar, open_end, rho_lo, rho_hi
+):
     """Advect cell quantities along the last spatial axis of the (possibly transposed) arrays.
+
+    Each line is gathered into contiguous buffers (stress and state as one block of components), its
+    face fluxes computed from them, and the result written back, so that a sweep across the memory
+    layout costs about as much as one along it. ``phi3`` is the soil fraction at the start of the sweep:
+    the transverse neighbours are read from it, so the result does not depend on the order in which
+    the lines are processed.
 
     The soil volume of a cell is kept consistent with its mass: its density stays in [rho_lo, rho_hi]
     (a nearly empty "dust" cell cannot hold soil volume without mass, which would otherwise govern the
     time step). Returns (mass leaving through the open end, soil volume adjusted by these rules)."""
     n1, n2, n = Vs.shape
     ns = state.shape[3]
+    nc = 6 + ns
     lost = 0.0
     capped = 0.0
     for i in prange(n1):
         dV = np.zeros(n + 1)
         dVs = np.zeros(n + 1)
         dm = np.zeros(n + 1)
-        dsig = np.zeros((n + 1, 6))
-        dst = np.zeros((n + 1, ns))
+        dq = np.zeros((n + 1, nc))
+        act = np.zeros(n, dtype=np.bool_)
         phi = np.zeros(n)
+        vs = np.zeros(n)
+        vc = np.zeros(n)
+        ms = np.zeros(n)
+        q = np.zeros((n, nc))
         for j in range(n2):
             A = h1[i] * h2[j]
             for k in range(n):
-                phi[k] = Vs[i, j, k] / Vcur[i, j, k]
+                act[k] = active3[i, j, k]
+                phi[k] = phi3[i, j, k]
+                vs[k] = Vs[i, j, k]
+                vc[k] = Vcur[i, j, k]
+                ms[k] = mass[i, j, k]
+                for d in range(6):
+                    q[k, d] = stress[i, j, k, d]
+                for d in range(ns):
+                    q[k, 6 + d] = state[i, j, k, d]
             for f in range(n + 1):
                 dV[f] = 0.0
                 dVs[f] = 0.0
                 dm[f] = 0.0
-                for d in range(6):
-                    dsig[f, d] = 0.0
-                for d in range(ns):
-                    dst[f, d] = 0.0
+                for d in range(nc):
+                    dq[f, d] = 0.0
                 if f == 0:
                     continue
                 if f == n and not open_end:
                     continue
-                if not active3[i, j, f - 1]:
+                if not act[f - 1]:
                     continue
-                if f < n and not active3[i, j, f]:
+                if f < n and not act[f]:
                     continue
                 u = 0.25 * (
                     v[i, j, f, comp] + v[i + 1, j, f, comp] + v[i, j + 1, f, comp] + v[i + 1, j + 1, f, comp]
@@ -133,12 +163,12 @@ def sweep_cells(h1, h2, active3, v, comp, dt, Vs, Vcur, mass, stress, state, fba
                     Ac = f - 1
                     U = f + 1 if f + 1 < n else -1
                     sgn = -1.0
-                if U >= 0 and not active3[i, j, U]:
+                if U >= 0 and not act[U]:
                     U = -1
                 dV[f] = dv
                 adv = abs(dv)
-                vsD = Vs[i, j, D]
-                vcD = Vcur[i, j, D]
+                vsD = vs[D]
+                vcD = vc[D]
                 phiD = phi[D]
                 phiA = phi[Ac] if Ac >= 0 else phiD
                 phiU = phi[U] if U >= 0 else phiD
@@ -149,7 +179,7 @@ def sweep_cells(h1, h2, active3, v, comp, dt, Vs, Vcur, mass, stress, state, fba
                     phiAD = phiD  # (e.g. inside the soil) both choices agree
                 else:
                     along = abs(phiA - phiU)
-                    across = _transverse_gradient(Vs, Vcur, active3, i, j, D)
+                    across = _transverse_gradient(phi3, active3, i, j, D)
                     phiAD = phiA if (Ac >= 0 and along >= across) else phiD
                 cf = max((1.0 - phiAD) * adv - (vcD - vsD), 0.0)
                 dvs = min(phiAD * adv + cf, vsD)
@@ -159,56 +189,50 @@ def sweep_cells(h1, h2, active3, v, comp, dt, Vs, Vcur, mass, stress, state, fba
                 if dvs >= vsD * (1.0 - 1.0e-12):
                     # the donor is emptied: everything it holds goes (no mass without soil volume left)
                     dVs[f] = sgn * vsD
-                    dm[f] = sgn * mass[i, j, D]
-                    for d in range(6):
-                        dsig[f, d] = sgn * vsD * stress[i, j, D, d]
-                    for d in range(ns):
-                        dst[f, d] = sgn * vsD * state[i, j, D, d]
+                    dm[f] = sgn * ms[D]
+                    for d in range(nc):
+                        dq[f, d] = sgn * vsD * q[D, d]
                     continue
                 # per-unit-soil-volume quantities: second order (van Leer) between full cells, first-order
                 # upwind near the free surface, so that density and stress stay consistent in mixed cells
                 full = (
                     phiD > 1.0 - 1.0e-9 and Ac >= 0 and phiA > 1.0 - 1.0e-9 and U >= 0 and phiU > 1.0 - 1.0e-9
                 )
-                cs = 0.5 * (1.0 - min(dvs / vsD, 1.0)) if full else 0.0
-                rD = mass[i, j, D] / vsD
-                rA = mass[i, j, Ac] / Vs[i, j, Ac] if full else rD
-                rU = mass[i, j, U] / Vs[i, j, U] if full else rD
-                rf = rD + cs * _vanleer(rA - rD, rD - rU)
-                dm[f] = sgn * min(dvs * rf, mass[i, j, D])
-                for d in range(6):
-                    sD = stress[i, j, D, d]
-                    sA = stress[i, j, Ac, d] if full else sD
-                    sU = stress[i, j, U, d] if full else sD
-                    dsig[f, d] = sgn * dvs * (sD + cs * _vanleer(sA - sD, sD - sU))
-                for d in range(ns):
-                    sD = state[i, j, D, d]
-                    sA = state[i, j, Ac, d] if full else sD
-                    sU = state[i, j, U, d] if full else sD
-                    dst[f, d] = sgn * dvs * (sD + cs * _vanleer(sA - sD, sD - sU))
+                if full:
+                    cs = 0.5 * (1.0 - min(dvs / vsD, 1.0))
+                    rD = ms[D] / vsD
+                    rf = rD + cs * _vanleer(ms[Ac] / vs[Ac] - rD, rD - ms[U] / vs[U])
+                    dm[f] = sgn * min(dvs * rf, ms[D])
+                    for d in range(nc):
+                        sD = q[D, d]
+                        dq[f, d] = sgn * dvs * (sD + cs * _vanleer(q[Ac, d] - sD, sD - q[U, d]))
+                else:
+                    dm[f] = sgn * min(dvs * (ms[D] / vsD), ms[D])
+                    for d in range(nc):
+                        dq[f, d] = sgn * dvs * q[D, d]
             if open_end and dm[n] > 0.0:
                 lost += dm[n]
             for k in range(n):
-                if not active3[i, j, k]:
+                if not act[k]:
                     fbar[i, j, k] = 0.0
                     continue
-                vs_old = Vs[i, j, k]
+                vs_old = vs[k]
                 vs_new = vs_old + dVs[k] - dVs[k + 1]
-                vc_new = Vcur[i, j, k] + dV[k] - dV[k + 1]
+                vc_new = vc[k] + dV[k] - dV[k + 1]
                 Vcur[i, j, k] = vc_new
-                mass[i, j, k] += dm[k] - dm[k + 1]
+                m_new = ms[k] + (dm[k] - dm[k + 1])
+                mass[i, j, k] = m_new
                 fbar[i, j, k] = 0.125 * (dm[k] + dm[k + 1])
-                m_new = mass[i, j, k]
                 vs_fix = min(max(vs_new, m_new / rho_hi), m_new / rho_lo) if m_new > 0.0 else 0.0
                 vs_fix = min(vs_fix, vc_new)
                 capped += abs(vs_fix - vs_new)
                 vs_new = vs_fix
-                if vs_new > VS_TINY * vc_new and mass[i, j, k] > 0.0:
+                if vs_new > VS_TINY * vc_new and m_new > 0.0:
                     inv = 1.0 / vs_new
                     for d in range(6):
-                        stress[i, j, k, d] = (stress[i, j, k, d] * vs_old + dsig[k, d] - dsig[k + 1, d]) * inv
+                        stress[i, j, k, d] = (q[k, d] * vs_old + dq[k, d] - dq[k + 1, d]) * inv
                     for d in range(ns):
-                        state[i, j, k, d] = (state[i, j, k, d] * vs_old + dst[k, d] - dst[k + 1, d]) * inv
+                        state[i, j, k, d] = (q[k, 6 + d] * vs_old + dq[k, 6 + d] - dq[k + 1, 6 + d]) * inv
                 else:
                     vs_new = max(vs_new, 0.0)
                     for d in range(6):
@@ -218,7 +242,7 @@ def sweep_cells(h1, h2, active3, v, comp, dt, Vs, Vcur, mass, stress, state, fba
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def sweep_nodes(active3, fbar, m_old, m_new, v, mtiny):
+def sweep_nodes(fbar, m_old, m_new, v, mtiny):
     """Advect nodal momentum along the last spatial axis with the dual-grid mass fluxes (van Leer velocity
     reconstruction), then v = p / m_new. The new nodal mass is the old one plus the net dual mass flux,
     which equals Σ m_cell/8 of the swept cells exactly (so no separate nodal-mass pass is needed)."""
@@ -232,8 +256,7 @@ def sweep_nodes(active3, fbar, m_old, m_new, v, mtiny):
                 g = 0.0
                 for ci in range(max(i - 1, 0), min(i + 1, n1)):
                     for cj in range(max(j - 1, 0), min(j + 1, n2)):
-                        if active3[ci, cj, k]:
-                            g += fbar[ci, cj, k]
+                        g += fbar[ci, cj, k]  # (zero in masked cells: sweep_cells sets it)
                 G[k] = g
             for k in range(n + 1):
                 for d in range(3):
@@ -317,18 +340,21 @@ def remap(
     rho_hi: float = np.inf,
 ) -> tuple[float, float]:
     """Advect everything back to the fixed grid (in place). ``nmass`` holds the nodal masses on entry and
-    is updated. Returns (mass lost through the top, soil volume capped)."""
+    is updated. ``state`` holds the advected state components (a caller passes a view without those it
+    recomputes from the result). Returns (mass lost through the top, soil volume capped)."""
     volume_change(hx, hy, hz, active2d, v, dt, Vs, Vcur)
     # every cell sweep uses the mesh motion of the Lagrangian phase; the node sweeps advect v itself
     v_mesh = v.copy()
     lost = 0.0
     capped = 0.0
     h = (hx, hy, hz)
-    m_new = np.empty_like(nmass)
+    m_cur, m_next = nmass, np.empty_like(nmass)
+    phi = np.empty_like(Vs)
     for axis in _ORDERS[parity % 2]:
         p = _PERM[axis]
         others = [a for a in (0, 1, 2) if a != axis]
         pc = p + (3,)
+        soil_fraction(Vs, Vcur, phi)
         l, c = sweep_cells(
             h[others[0]],
             h[others[1]],
@@ -336,6 +362,7 @@ def remap(
             v_mesh.transpose(pc),
             axis,
             dt,
+            phi.transpose(p),
             Vs.transpose(p),
             Vcur.transpose(p),
             mass.transpose(p),
@@ -348,13 +375,8 @@ def remap(
         )
         lost += l
         capped += c
-        sweep_nodes(
-            active3.transpose(p),
-            fbar.transpose(p),
-            nmass.transpose(p),
-            m_new.transpose(p),
-            v.transpose(pc),
-            mtiny,
-        )
-        nmass[...] = m_new
+        sweep_nodes(fbar.transpose(p), m_cur.transpose(p), m_next.transpose(p), v.transpose(pc), mtiny)
+        m_cur, m_next = m_next, m_cur
+    if m_cur is not nmass:
+        nmass[...] = m_cur
     return lost, capped

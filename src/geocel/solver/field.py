@@ -282,7 +282,7 @@ class SoilField:
             self.Vcur,
             self.mass,
             self.stress,
-            self.state,
+            self.state[..., 1:],  # e (component 0) is recomputed from the density below
             self.nmass,
             self.fbar,
             self.step_count if parity is None else parity,
