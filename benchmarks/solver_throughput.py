@@ -42,6 +42,7 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=numba.config.NUMBA_NUM_THREADS)
     args = ap.parse_args()
     numba.set_num_threads(args.threads)
+    numba.set_parallel_chunksize(1)  # as Simulation.run: rows handed out one at a time
     f = make_field(args.cells)
     ncell = f.grid.n_active
     print(f.grid.describe())

@@ -11,6 +11,7 @@ from geocel.config.scenario import scenario_from_dict
 from geocel.euler.lagrange import update_cells
 from geocel.euler.remap import remap
 from geocel.grid import Grid
+from geocel.materials.kernels import model_tag
 from geocel.materials.tensor import invariants_pq, vec_to_mat
 from geocel.solver.field import SoilField, SolverSettings
 from geocel.solver.simulation import Simulation
@@ -234,7 +235,7 @@ def test_rigid_rotation_keeps_the_stress_invariants():
     dt = 1e-3
     for _ in range(1500):  # ≈ 1.6 rad
         update_cells(
-            mat.model_id,
+            model_tag(mat.model_id),
             prm,
             grid.hx,
             grid.hy,
@@ -415,7 +416,7 @@ def _hourglass_force(amp, nsteps, rho, beta=0.1, dt=1e-4):
     flags = np.zeros(shape, dtype=np.int64)
     for _ in range(nsteps):
         update_cells(
-            mat.model_id, mat.to_array(), grid.hx, grid.hy, grid.hz, grid.active2d, Vs, mass, stress, state,
+            model_tag(mat.model_id), mat.to_array(), grid.hx, grid.hy, grid.hz, grid.active2d, Vs, mass, stress, state,
             v, q, hg, modulus, flags, dt, 0.0, 0.0, 0.0, 0.05, 1, beta,
         )  # fmt: skip
     np.testing.assert_allclose(stress[..., :3], -100e3)  # no strain from a pure hourglass field

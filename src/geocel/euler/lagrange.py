@@ -21,8 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..materials.hypoplastic import hypoplastic_cell
-from ..materials.kernels import HYPOPLASTIC, update_point
+from ..materials.kernels import cell_update
 from ..materials.tensor import KERNEL_OPTIONS
 
 #: a cell whose soil volume fraction is below this carries no stress (void)
@@ -233,7 +232,7 @@ def _velocity_gradient(v, i, j, k, hx, hy, hz):
 
 @njit(parallel=True, **KERNEL_OPTIONS)
 def update_cells(
-    model,
+    tag,
     prm,
     hx,
     hy,
@@ -256,7 +255,8 @@ def update_cells(
     hoff,
     beta,
 ):
-    """Constitutive update of every soil cell with the strain and spin increments of v^{n+½}.
+    """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (the model
+    given by ``tag``, :func:`geocel.materials.kernels.model_tag`).
 
     Also computes the bulk-viscosity pressure q and hourglass forces for the next nodal pass, and returns
     (stable Δt of the cells, index of the cell governing Δt). Cells below :data:`PHI_MIN` are set
@@ -315,15 +315,7 @@ def update_cells(
                     w12 = 0.5 * (L[1] - L[3]) * dt
                     w13 = 0.5 * (L[2] - L[6]) * dt
                     w23 = 0.5 * (L[5] - L[7]) * dt
-                    if model == HYPOPLASTIC:
-                        M, f = hypoplastic_cell(prm, s2, st2, c, D, w12, w13, w23, 1)
-                    else:
-                        for d in range(6):
-                            dbuf[d] = D[d]
-                        wbuf[0] = w12
-                        wbuf[1] = w13
-                        wbuf[2] = w23
-                        M, f = update_point(model, prm, s2[c], st2[c], dbuf, wbuf, 0.0, 1, work)
+                    M, f = cell_update(tag, prm, s2, st2, c, D, (w12, w13, w23), 1, work, dbuf, wbuf)
                     flags[i, j, k] = f
                     modulus[i, j, k] = M
                     rho = mass[i, j, k] / vs

@@ -315,8 +315,9 @@ def sweep_nodes(fbar, m_old, m_new, v, mtiny):
 
 
 _ORDERS = ((0, 1, 2), (2, 1, 0))
-# transposition of (x, y, z) arrays so that the swept axis comes last
-_PERM = {0: (1, 2, 0), 1: (0, 2, 1), 2: (0, 1, 2)}
+# transposition of (x, y, z) arrays so that the swept axis comes last; every sweep gets a transposed
+# (non-contiguous) view, so that numba compiles one specialisation of each sweep kernel, not two
+_PERM = {0: (1, 2, 0), 1: (0, 2, 1), 2: (1, 0, 2)}
 
 
 def remap(
@@ -352,7 +353,7 @@ def remap(
     phi = np.empty_like(Vs)
     for axis in _ORDERS[parity % 2]:
         p = _PERM[axis]
-        others = [a for a in (0, 1, 2) if a != axis]
+        others = p[:2]
         pc = p + (3,)
         soil_fraction(Vs, Vcur, phi)
         l, c = sweep_cells(

@@ -19,6 +19,7 @@ from ..config.materials import Elastic, Hypoplastic, MohrCoulomb
 from ..euler.lagrange import PHI_MIN, advance_nodes, characteristic_length, node_mass, update_cells
 from ..euler.remap import remap
 from ..grid import Grid
+from ..materials.kernels import model_tag
 from ..materials.kernels import update_cells as material_update_cells
 from ..materials.tensor import KERNEL_OPTIONS
 
@@ -100,6 +101,7 @@ class SoilField:
         if self.scaling < 1.0:
             raise ValueError(f"mass_gravity = {self.scaling} must be ≥ 1")
         self.model_id = self.material.model_id
+        self.model_tag = model_tag(self.model_id)
         self.prm = self.material.to_array()
         self.gravity = self.settings.gravity / self.scaling
         self.grain_density = self.material.grain_density * self.scaling
@@ -243,7 +245,7 @@ class SoilField:
         ke_half = _kinetic_energy(self.nmass, self.v)
         t1 = time.perf_counter()
         dtc, arg = update_cells(
-            self.model_id,
+            self.model_tag,
             self.prm,
             self.hx,
             self.hy,
