@@ -52,6 +52,8 @@ def cell_update(tag, prm, stress, state, i, D, W, nsub, work, dbuf, wbuf):
 
 @overload(cell_update, jit_options=KERNEL_OPTIONS)
 def _cell_update(tag, prm, stress, state, i, D, W, nsub, work, dbuf, wbuf):
+    if not isinstance(tag, types.Array):
+        raise TypeError(f"cell_update: the model is given by model_tag(model), not {tag}")
     if tag.dtype == types.int32:
 
         def hypoplastic(tag, prm, stress, state, i, D, W, nsub, work, dbuf, wbuf):
