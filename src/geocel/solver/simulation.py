@@ -579,6 +579,7 @@ class Simulation:
             raise
         finally:
             numba.set_parallel_chunksize(chunk)
+            bar.update(self, steps_this_run, force=True)  # the final state, not the last throttled one
             bar.close()
             history.close()
             rd.write_summary(self.summary())
@@ -636,11 +637,11 @@ class _Progress:
         self.task = self.p.add_task("run", total=total, info="")
         self._t0 = _time.perf_counter()
 
-    def update(self, sim: Simulation, steps: int) -> None:
+    def update(self, sim: Simulation, steps: int, force: bool = False) -> None:
         if not self.enabled:
             return
         now = _time.perf_counter()
-        if now - self._last < 0.5:
+        if now - self._last < 0.5 and not force:
             return
         self._last = now
         ratio = sim.energy_ratio()
