@@ -282,7 +282,6 @@ def update_cells(
     for ch in prange(nchunk):
         dbuf = np.empty(6)
         wbuf = np.empty(3)
-        work = np.empty(128)
         best = np.inf
         best_c = -1
         for i in range(ch * nx // nchunk, (ch + 1) * nx // nchunk):
@@ -315,7 +314,7 @@ def update_cells(
                     w12 = 0.5 * (L[1] - L[3]) * dt
                     w13 = 0.5 * (L[2] - L[6]) * dt
                     w23 = 0.5 * (L[5] - L[7]) * dt
-                    M, f = cell_update(tag, prm, s2, st2, c, D, (w12, w13, w23), 1, work, dbuf, wbuf)
+                    M, f = cell_update(tag, prm, s2, st2, c, D, (w12, w13, w23), 1, dbuf, wbuf)
                     flags[i, j, k] = f
                     modulus[i, j, k] = M
                     rho = mass[i, j, k] / vs
