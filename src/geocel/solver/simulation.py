@@ -604,8 +604,10 @@ class Simulation:
 
     def _count_rules(self) -> None:
         flags = self.field.flags
+        fired = int(np.bitwise_or.reduce(flags, axis=None))  # one pass; most steps fire no rule at all
         for bit, name in fl.NAMES.items():
-            self.rule_counts[name] += int(np.count_nonzero(flags & bit))
+            if fired & bit:
+                self.rule_counts[name] += int(np.count_nonzero(flags & bit))
 
 
 class _Progress:
