@@ -13,7 +13,7 @@ from geocel.euler.remap import remap
 from geocel.grid import Grid
 from geocel.materials.kernels import model_tag
 from geocel.materials.tensor import invariants_pq, vec_to_mat
-from geocel.solver.field import SoilField, SolverSettings
+from geocel.solver.field import SoilField, SolverSettings, accumulate_displacement, node_spacing
 from geocel.solver.simulation import Simulation
 
 G = 9.81
@@ -27,10 +27,10 @@ def column_grid(h=0.2, depth=4.0, void=0.4, n=2):
     return Grid(xy, xy.copy(), z, symmetry="quarter")
 
 
-@pytest.mark.parametrize("S", [1.0, 100.0])
-def test_geostatic_column_with_free_surface_stays_at_rest(S):
+@pytest.mark.parametrize("S, courant", [(1.0, 0.0), (100.0, 0.0), (1.0, 0.05)])
+def test_geostatic_column_with_free_surface_stays_at_rest(S, courant):
     grid = column_grid()
-    f = SoilField(grid, Hypoplastic.fraction_e(), scaling=S)
+    f = SoilField(grid, Hypoplastic.fraction_e(), scaling=S, settings=SolverSettings(remap_courant=courant))
     f.fill_below(0.0)
     e0 = 0.62
     f.geostatic([(0.0, e0)], k0=0.5)
@@ -47,6 +47,20 @@ def test_geostatic_column_with_free_surface_stays_at_rest(S):
     void = grid.zc > 0
     assert np.all(f.stress[:, :, void] == 0.0) and np.all(f.Vs[:, :, void] < 1e-12 * f.volume[:, :, void])
     assert abs(f.mass_error()) < 1e-12
+
+
+def test_accumulated_displacement_and_the_courant_number_of_the_pending_remap():
+    h = np.array([0.1, 0.2, 0.4])
+    np.testing.assert_array_equal(node_spacing(h), [0.1, 0.1, 0.2, 0.4])
+    v = np.zeros((4, 4, 4, 3))
+    v[...] = (1.0, -2.0, 0.5)
+    v[3, :, :, 0] = 3.0  # the node beside the largest cell: 3 m/s over 0.4 m is slower than 1 m/s over 0.1 m
+    u = np.zeros_like(v)
+    r = [1.0 / node_spacing(h)] * 3
+    for n in range(1, 8):
+        c = accumulate_displacement(*r, v, 0.01, u)
+        np.testing.assert_allclose(u, n * 0.01 * v, rtol=1e-14)
+        assert c == pytest.approx(n * 0.01 * 2.0 / 0.1, rel=1e-14)  # |u_y| at the 0.1 m spacing
 
 
 def test_mgs_initial_stress_identical_and_time_step_grows_with_sqrt_s():

@@ -406,6 +406,14 @@ class Solver(_Table):
     gravity: float = Field(
         9.81, ge=0.0, le=1.0e4, description="gravitational acceleration (before MGS), m/s²"
     )
+    remap_courant: float = Field(
+        0.02,
+        ge=0.0,
+        le=0.25,
+        description="defer the remap until a soil node has moved this fraction of its smallest adjacent cell "
+        "(the Lagrangian displacements accumulate in between, as LS-DYNA's advection cycles); 0: remap after "
+        "every step, as Abaqus/Explicit CEL, -",
+    )
     pile_subcycling: bool = Field(
         True,
         description="advance a solid (conventional) pile whose stable step is below the soil's with several "

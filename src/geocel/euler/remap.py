@@ -16,6 +16,9 @@ Directional splitting (x, y, z sweeps; the order alternates every step) with con
   the nodal mass equal to Σ m_cell/8 after every sweep (exact consistency), and momentum is conserved
   (a node that nearly empties is limited to the range of the velocities it exchanged mass with).
 
+The mesh motion may also be the node displacements of several Lagrangian steps (``displacement``), when the
+solver defers the remap (:class:`geocel.solver.field.SolverSettings` ``remap_courant``).
+
 Faces on the domain boundary and between active and masked columns carry no flux; the top face of the
 domain is open (material leaving is counted). Cells whose soil volume would exceed the cell volume (a
 splitting error) are capped and counted.
@@ -339,13 +342,19 @@ def remap(
     mtiny: float,
     rho_lo: float = 0.0,
     rho_hi: float = np.inf,
+    displacement: np.ndarray | None = None,
 ) -> tuple[float, float]:
     """Advect everything back to the fixed grid (in place). ``nmass`` holds the nodal masses on entry and
     is updated. ``state`` holds the advected state components (a caller passes a view without those it
-    recomputes from the result). Returns (mass lost through the top, soil volume capped)."""
-    volume_change(hx, hy, hz, active2d, v, dt, Vs, Vcur)
+    recomputes from the result). The mesh motion of the Lagrangian phase is v Δt, or ``displacement``
+    (node displacements accumulated over several steps, m; ``dt`` is then ignored). Returns (mass lost
+    through the top, soil volume capped)."""
     # every cell sweep uses the mesh motion of the Lagrangian phase; the node sweeps advect v itself
-    v_mesh = v.copy()
+    if displacement is None:
+        v_mesh = v.copy()
+    else:
+        v_mesh, dt = displacement, 1.0
+    volume_change(hx, hy, hz, active2d, v_mesh, dt, Vs, Vcur)
     lost = 0.0
     capped = 0.0
     h = (hx, hy, hz)

@@ -59,7 +59,7 @@ HISTORY_COLUMNS = [
 ]
 
 #: arrays of the soil field saved in a checkpoint
-_STATE_ARRAYS = ("Vs", "Vcur", "mass", "stress", "state", "q", "hg", "v", "nmass", "modulus")
+_STATE_ARRAYS = ("Vs", "Vcur", "mass", "stress", "state", "q", "hg", "v", "nmass", "modulus", "u_remap")
 
 
 def build_grid(scenario: Scenario) -> Grid:
@@ -90,6 +90,7 @@ def build_field(scenario: Scenario, grid: Grid | None = None) -> SoilField:
         bulk_viscosity_linear=s.bulk_viscosity_linear,
         bulk_viscosity_quadratic=s.bulk_viscosity_quadratic,
         gravity=s.gravity,
+        remap_courant=s.remap_courant,
     )
     mat = scenario.soil.material
     field = SoilField(grid, mat, scaling=scenario.scaling.mass_gravity, settings=settings)
@@ -191,7 +192,8 @@ class Simulation:
     def _restore(self, arrays: dict[str, np.ndarray]) -> None:
         f = self.field
         for name in _STATE_ARRAYS:
-            getattr(f, name)[...] = arrays[name]
+            if name in arrays or name != "u_remap":  # (checkpoints before deferred remaps: none pending)
+                getattr(f, name)[...] = arrays[name]
         if self.pile is not None:
             self.pile.restore_arrays({k[5:]: v for k, v in arrays.items() if k.startswith("pile_")})
             self._sums[...] = arrays["force_sums"]
@@ -201,6 +203,7 @@ class Simulation:
         meta = {
             "time": f.time,
             "step": f.step_count,
+            "remap_count": f.remap_count,
             "dt": f.dt,
             "energy": dict(f.energy),
             "lost_mass": f.lost_mass,
@@ -223,6 +226,7 @@ class Simulation:
     def _apply_meta(self, meta: dict) -> None:
         f = self.field
         f.time, f.step_count, f.dt = meta["time"], meta["step"], meta["dt"]
+        f.remap_count = meta.get("remap_count", f.step_count)  # (checkpoints before deferred remaps)
         f.energy.update(meta["energy"])
         f.lost_mass, f.capped_volume, f.initial_mass = (
             meta["lost_mass"],
