@@ -11,7 +11,7 @@ run-out of axisymmetric collapses as
 peak. The run-out front is the largest radius of a column of cells holding soil thicker than a quarter of
 a cell. Prints measured and predicted run-out per aspect ratio.
 
-    python benchmarks/column_collapse.py [--cell 0.05] [--ratios 0.5 2.0]
+    python benchmarks/column_collapse.py [--cell 0.05] [--ratios 0.5 2.0] [--remap-courant 0.02]
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numpy as np
 
 from geocel.config.materials import MohrCoulomb
 from geocel.grid import Grid
-from geocel.solver.field import SoilField
+from geocel.solver.field import SoilField, SolverSettings
 
 
 def lube_runout(a: float) -> float:
@@ -31,7 +31,9 @@ def lube_runout(a: float) -> float:
     return 1.24 * a if a < 1.7 else 1.6 * np.sqrt(a)
 
 
-def collapse(a: float, r0: float = 0.5, cell: float = 0.05, t_max: float = 3.0) -> dict:
+def collapse(
+    a: float, r0: float = 0.5, cell: float = 0.05, t_max: float = 3.0, remap_courant: float | None = None
+) -> dict:
     h0 = a * r0
     rmax = r0 * (1.0 + 1.6 * lube_runout(a))
     n = int(np.ceil(rmax / cell))
@@ -40,7 +42,8 @@ def collapse(a: float, r0: float = 0.5, cell: float = 0.05, t_max: float = 3.0) 
     z = cell * np.arange(nz + 1) - 0.0
     grid = Grid(xy, xy.copy(), z, symmetry="quarter")
     mat = MohrCoulomb(youngs_modulus=5e6, poisson_ratio=0.3, friction_angle=30.0, dilatancy_angle=0.0)
-    f = SoilField(grid, mat)
+    settings = SolverSettings() if remap_courant is None else SolverSettings(remap_courant=remap_courant)
+    f = SoilField(grid, mat, settings=settings)
     xc, yc = np.meshgrid(grid.xc, grid.yc, indexing="ij")
     f.fill_below(h0)
     f.Vs[np.hypot(xc, yc) > r0] = 0.0
@@ -78,12 +81,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--cell", type=float, default=0.05)
     ap.add_argument("--ratios", type=float, nargs="+", default=[0.5, 2.0])
+    ap.add_argument(
+        "--remap-courant", type=float, default=None, help="[solver] remap_courant (default: 0.02)"
+    )
     args = ap.parse_args()
     print(
         "a     (r∞−r0)/r0 measured   Lube et al. 2004   error   h∞/r0   steps   t [s]   wall [s]   mass err"
     )
     for a in args.ratios:
-        res = collapse(a, cell=args.cell)
+        res = collapse(a, cell=args.cell, remap_courant=args.remap_courant)
         err = res["runout_measured"] / res["runout_lube"] - 1
         print(
             f"{a:<5.2f} {res['runout_measured']:18.3f} {res['runout_lube']:18.3f} {100 * err:+6.1f} % "
