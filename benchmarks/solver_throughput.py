@@ -18,7 +18,7 @@ import numpy as np
 
 from geocel.config.materials import Hypoplastic
 from geocel.grid import Grid
-from geocel.solver.field import SoilField
+from geocel.solver.field import SoilField, SolverSettings
 
 
 def make_field(n_cells: int) -> SoilField:
@@ -26,7 +26,8 @@ def make_field(n_cells: int) -> SoilField:
     nx, nz = n, 2 * n  # a column twice as deep as wide
     h = 0.1
     grid = Grid.uniform((nx, nx, nz), h, origin=(0.0, 0.0, -nz * h), symmetry="quarter")
-    f = SoilField(grid, Hypoplastic.fraction_e())
+    # the remap after every step (not deferred), so that every step pays for all of its phases
+    f = SoilField(grid, Hypoplastic.fraction_e(), settings=SolverSettings(remap_courant=0.0))
     f.fill_below(0.0)
     f.geostatic([(0.0, 0.62)], k0=0.5)
     depth = -grid.z
