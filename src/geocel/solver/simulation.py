@@ -385,6 +385,7 @@ class Simulation:
             "grid_shape": list(f.grid.shape),
             "smallest_cell": f.grid.smallest_cell(),
             "steps": f.step_count,
+            "remaps": f.remap_count,  # fewer than steps when the remap is deferred ([solver] remap_courant)
             "time": f.time,
             "wall_time": self.wall_time,
             # where the soil step's time goes (s, this process): Lagrangian nodes (+ contact), cells
