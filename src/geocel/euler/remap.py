@@ -1,6 +1,6 @@
 """Remap (advection) of the soil back onto the fixed grid after the Lagrangian phase.
 
-Directional splitting (x, y, z sweeps; the order alternates every step) with conservative face fluxes:
+Directional splitting (x, y, z sweeps; the order alternates from one remap to the next) with conservative face fluxes:
 
 * the volume swept by a face in a sweep is δV = u_f Δt A_f, with u_f the mean normal velocity of its four
   nodes; the cell volume after the Lagrangian phase, V·J with J = 1 + Δt ∇·v, returns to V exactly after
