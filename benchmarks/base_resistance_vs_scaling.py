@@ -2,11 +2,11 @@
 the base resistance depends on S at the `demo` resolution, with the same cells at the pile as the benchmark).
 
     python benchmarks/base_resistance_vs_scaling.py [--kind rigid] [--scaling 1 10] [--penetration 1.2]
-        [--hourglass K] [--hourglass-stiffness KS] [--hourglass-limit BETA]
+        [--hourglass K] [--hourglass-stiffness KS] [--resolution demo]
 
 Prints, per S: wall time, steps, soil volume moved out of the pile by the exclusion step (and the part that
 found no free space), max kinetic/internal energy ratio, then q_b (MPa, averaged over one cell of depth) at
-every 0.12 m of tip depth. Each S runs on one thread; run them one after another.
+every 0.12 m of tip depth, with the shaft friction q_s (kPa). Each S runs on one thread.
 """
 
 from __future__ import annotations
@@ -27,9 +27,9 @@ from geocel.solver.simulation import Simulation
 
 
 def run(
-    kind: str, S: float, penetration: float, root: Path, solver: dict
-) -> tuple[dict, np.ndarray, np.ndarray]:
-    d = preset_dict("deeks-white", resolution="demo", penetration=penetration, velocity=0.5)
+    kind: str, S: float, penetration: float, root: Path, solver: dict, resolution: str = "demo"
+) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray]:
+    d = preset_dict("deeks-white", resolution=resolution, penetration=penetration, velocity=0.5)
     d.setdefault("solver", {}).update(solver)
     # a 4 m wide, 6 m deep container instead of 21.25 m × 28 m: the base resistance is set near the pile
     d["domain"].update(
@@ -51,7 +51,7 @@ def run(
         "no_room_m3": round(c.overfilled_volume, 4),
         "max_KE/IE": round(s["max_energy_ratio"], 4),
     }
-    return info, h["tip_depth"].to_numpy(), h["qb"].to_numpy()
+    return info, h["tip_depth"].to_numpy(), h["qb"].to_numpy(), h["qs"].to_numpy()
 
 
 def main() -> None:
@@ -63,13 +63,9 @@ def main() -> None:
     ap.add_argument(
         "--hourglass-stiffness", type=float, help="stiffness hourglass κ_s (default: the preset's)"
     )
-    ap.add_argument(
-        "--hourglass-limit", type=float, help="limit β of the stiffness part (default: the preset's)"
-    )
+    ap.add_argument("--resolution", default="demo", choices=("demo", "coarse", "paper"))
     a = ap.parse_args()
     solver = {}
-    if a.hourglass_limit is not None:
-        solver["hourglass_limit"] = a.hourglass_limit
     if a.hourglass is not None:
         solver["hourglass"] = a.hourglass
     if a.hourglass_stiffness is not None:
@@ -79,12 +75,12 @@ def main() -> None:
     cols = {}
     with tempfile.TemporaryDirectory() as tmp:
         for S in a.scaling:
-            info, z, qb = run(a.kind, S, a.penetration, Path(tmp), solver)
+            info, z, qb, qs = run(a.kind, S, a.penetration, Path(tmp), solver, a.resolution)
             print(f"{a.kind} S = {S:g}: {info}", flush=True)
-            cols[S] = np.interp(depths, z, qb) / 1e6
-    print("tip depth (m) " + " ".join(f"q_b S={S:g} (MPa)" for S in cols))
+            cols[S] = (np.interp(depths, z, qb) / 1e6, np.interp(depths, z, qs) / 1e3)
+    print("tip depth (m) " + " ".join(f"q_b S={S:g} (MPa) q_s S={S:g} (kPa)" for S in cols))
     for i, z in enumerate(depths):
-        print(f"{z:12.2f} " + " ".join(f"{cols[S][i]:15.2f}" for S in cols))
+        print(f"{z:12.2f} " + " ".join(f"{cols[S][0][i]:15.2f} {cols[S][1][i]:15.2f}" for S in cols))
 
 
 if __name__ == "__main__":

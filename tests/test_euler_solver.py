@@ -225,7 +225,7 @@ def test_rigid_rotation_keeps_the_stress_invariants():
     shape = grid.shape
     stress = np.zeros(shape + (6,))
     stress[...] = np.array([-100e3, -50e3, -30e3, 10e3, -5e3, 8e3])
-    state = np.zeros(shape + (13,))  # e, then the stiffness hourglass state
+    state = np.zeros(shape + (14,))  # e, then the hourglass stresses and the tangent shear modulus
     state[..., 0] = 0.6
     Vs = vol.copy()
     mass = 1600.0 * vol
@@ -265,11 +265,12 @@ def test_rigid_rotation_keeps_the_stress_invariants():
             0.06,
             1.2,
             0.05,
-            0.05,
+            1.0,
             1,
-            0.1,
+            0.0,
+            1e300,
         )
-    np.testing.assert_allclose(state[..., 1:], 0.0, atol=1e-3)  # Pa: a linear field has no hourglass part
+    np.testing.assert_allclose(state[..., 1:13], 0.0, atol=1e-3)  # Pa: a linear field has no hourglass part
     p, qq = invariants_pq(stress.reshape(-1, 6))
     dets = np.linalg.det(vec_to_mat(stress.reshape(-1, 6)))
     np.testing.assert_allclose(p, p0, rtol=1e-6)
@@ -403,49 +404,58 @@ def test_instability_is_reported_with_a_diagnostic_and_the_last_good_state(tmp_p
     assert len(list((tmp_path / "unstable" / "fields").glob("soil_*.vtr"))) >= 1
 
 
-def _hourglass_force(amp, nsteps, rho, beta=0.1, dt=1e-4):
-    """Generalised force Q of the ξη mode in x of one elastic cell after ``nsteps`` steps of the nodal
-    velocity field v_x = amp·ξη (a pure hourglass mode: zero velocity gradient), stiffness control only."""
-    h = 0.2
-    grid = Grid.uniform((1, 1, 1), h, origin=(0.0, 0.0, 0.0), symmetry="full")
-    shape = grid.shape
-    vol = grid.cell_volumes()
-    stress = np.zeros(shape + (6,))
+def _hourglass_force(amp, nsteps, rho, mode=0, direction=0, dt=1e-4, shape=(0.2, 0.2, 0.2)):
+    """Generalised force Q of one hourglass mode (ξη, ηζ, ξζ, ξηζ) in one direction of one elastic cell
+    after ``nsteps`` steps of the nodal velocity field v_d = amp·H (a pure hourglass mode: zero velocity
+    gradient), physical stiffness only (no viscous part)."""
+    grid = Grid.uniform((1, 1, 1), shape, origin=(0.0, 0.0, 0.0), symmetry="full")
+    cells = grid.shape
+    vol = shape[0] * shape[1] * shape[2] * np.ones(cells)
+    stress = np.zeros(cells + (6,))
     stress[..., :3] = -100e3  # p = 100 kPa
-    state = np.zeros(shape + (13,))
+    E, nu = 50e6, 0.3
+    M = E * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
+    G = 0.375 * M  # the modes' shear modulus: the unloading G of the P-wave modulus M at ν = 0.2
+    state = np.zeros(cells + (14,))
     state[..., 0] = 0.6
     Vs = vol.copy()
     mass = rho * vol
     v = np.zeros((2, 2, 2, 3))
     for a in range(2):
         for b in range(2):
-            v[a, b, :, 0] = amp * (2 * a - 1) * (2 * b - 1)
-    mat = Elastic(youngs_modulus=50e6, poisson_ratio=0.3)
-    q = np.zeros(shape)
-    hg = np.zeros(shape + (4, 3))
-    modulus = np.zeros(shape)
-    flags = np.zeros(shape, dtype=np.int64)
+            for c in range(2):
+                xi, eta, zeta = 2 * a - 1, 2 * b - 1, 2 * c - 1
+                H = (xi * eta, eta * zeta, xi * zeta, xi * eta * zeta)[mode]
+                v[a, b, c, direction] = amp * H
+    mat = Elastic(youngs_modulus=E, poisson_ratio=nu)
+    q = np.zeros(cells)
+    hg = np.zeros(cells + (4, 3))
+    modulus = np.zeros(cells)
+    flags = np.zeros(cells, dtype=np.int64)
     for _ in range(nsteps):
         update_cells(
             model_tag(mat.model_id), mat.to_array(), grid.hx, grid.hy, grid.hz, grid.active2d, Vs, mass, stress, state,
-            v, q, hg, modulus, flags, dt, 0.0, 0.0, 0.0, 0.05, 1, beta,
+            v, q, hg, modulus, flags, dt, 0.0, 0.0, 0.0, 1.0, 1, 0.0, 1e300,
         )  # fmt: skip
     np.testing.assert_allclose(stress[..., :3], -100e3)  # no strain from a pure hourglass field
-    return hg[0, 0, 0, 0, 0] * mass[0, 0, 0], h, modulus[0, 0, 0]
+    return hg[0, 0, 0, mode, direction] * mass[0, 0, 0], G
 
 
-def test_stiffness_hourglass_is_rate_and_density_independent_and_limited():
-    """Q_α = κ_s M V^{2/3}/(8 L_e) u_α with u_α = Σ_I h_αI x_I the hourglass displacement (here 8·amp·t),
-    the same for half the velocity over twice the time (rate-independent) and for 100× the density (MGS),
-    and never above β p V^{2/3}."""
-    E, nu, kappa_s = 50e6, 0.3, 0.05
-    M = E * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
-    f1, h, m = _hourglass_force(1e-4, 20, 1600.0)
-    assert m == pytest.approx(M)
-    le = h / np.sqrt(3.0)
-    u = 8 * 1e-4 * 20 * 1e-4
-    assert f1 == pytest.approx(kappa_s * M * h**2 / (8 * le) * u, rel=1e-9)
-    assert _hourglass_force(0.5e-4, 40, 1600.0)[0] == pytest.approx(f1, rel=1e-9)
-    assert _hourglass_force(1e-4, 20, 160000.0)[0] == pytest.approx(f1, rel=1e-9)
-    # far past the limit: |Q| = β p V^{2/3}
-    assert _hourglass_force(1.0, 20, 1600.0, beta=0.1)[0] == pytest.approx(0.1 * 100e3 * h**2, rel=1e-9)
+def test_physical_hourglass_stiffness_is_the_strain_energy_of_the_mode_and_has_no_cap_in_elastic_soil():
+    """The bending mode v_x = (u/8) ξη of a cell of size h_x × h_y × h_z has the normal strain
+    ε_xx = u η/(4 h_x); kept at the isochoric E = 3G (its parasitic shear dropped) its strain energy is
+    U = ½ 3G ∫ε² dV = G u² h_y h_z/(32 h_x), so Q = dU/du = G u h_y h_z/(16 h_x). The warping mode
+    v_z = (u/8) ξη has ε_xz = u η/(8 h_x), ε_yz = u ξ/(8 h_y): U = ½ 4G ∫(ε_xz² + ε_yz²) dV, Q = G u V (1/h_x² + 1/h_y²)/48.
+    Q is the same for half the velocity over twice the time (rate-independent), for 100× the density (MGS),
+    and grows linearly far beyond any cap in an elastic soil, which has no strength (the former limit
+    β p V^{2/3} was 4 kN here)."""
+    u = 8 * 1e-4 * 20 * 1e-4  # Σ_I h_I x_I after 20 steps of 1e-4 s
+    hx, hy, hz = 0.2, 0.25, 0.3
+    q1, G = _hourglass_force(1e-4, 20, 1600.0, shape=(hx, hy, hz))
+    assert q1 == pytest.approx(G * u * hy * hz / (16 * hx), rel=1e-9)
+    qw, _ = _hourglass_force(1e-4, 20, 1600.0, direction=2, shape=(hx, hy, hz))
+    assert qw == pytest.approx(G * u * hx * hy * hz * (1 / hx**2 + 1 / hy**2) / 48, rel=1e-9)
+    assert _hourglass_force(0.5e-4, 40, 1600.0, shape=(hx, hy, hz))[0] == pytest.approx(q1, rel=1e-9)
+    assert _hourglass_force(1e-4, 20, 160000.0, shape=(hx, hy, hz))[0] == pytest.approx(q1, rel=1e-9)
+    big = _hourglass_force(1.0, 20, 1600.0, shape=(hx, hy, hz))[0]
+    assert big == pytest.approx(1e4 * q1, rel=1e-9) and big > 10 * 0.1 * 100e3 * (hx * hy * hz) ** (2 / 3)

@@ -3,7 +3,7 @@
 Public API (mirrors the scenario file): material parameter classes and the element-test driver.
 """
 
-from .config.materials import PRESETS, Elastic, Hypoplastic, MohrCoulomb, load_material
+from .config.materials import PRESETS, Elastic, Hypoplastic, MohrCoulomb, Tresca, load_material
 from .element_test.driver import ElementTestResult, element_test
 
 __all__ = [
@@ -12,6 +12,7 @@ __all__ = [
     "ElementTestResult",
     "Hypoplastic",
     "MohrCoulomb",
+    "Tresca",
     "element_test",
     "load_material",
 ]

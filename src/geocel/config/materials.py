@@ -32,6 +32,11 @@ class _Material(BaseModel):
         """State vector of one point: ``[e]`` for the simple models."""
         return np.array([e0], dtype=float)
 
+    def strength_line(self) -> tuple[float, float]:
+        """(M_f, c_f) of the strength in triaxial compression, q_f = M_f p + c_f (q von Mises deviator,
+        p mean pressure, Pa); unbounded for an elastic soil."""
+        return 0.0, 1.0e300
+
 
 class Elastic(_Material):
     """Isotropic linear elasticity (hypoelastic with Jaumann rate)."""
@@ -61,6 +66,11 @@ class MohrCoulomb(_Material):
     model_id: ClassVar[int] = MOHR_COULOMB
     state_names: ClassVar[tuple[str, ...]] = ("e",)
 
+    def strength_line(self) -> tuple[float, float]:
+        s = math.sin(math.radians(self.friction_angle))
+        mf = 6.0 * s / (3.0 - s)
+        return mf, 6.0 * self.cohesion * math.cos(math.radians(self.friction_angle)) / (3.0 - s)
+
     @model_validator(mode="after")
     def _check(self) -> MohrCoulomb:
         if self.dilatancy_angle > self.friction_angle:
@@ -89,6 +99,30 @@ class MohrCoulomb(_Material):
         )
 
 
+class Tresca(_Material):
+    """Undrained total-stress soil: linear elastic, perfectly plastic with the Tresca criterion
+    σ_1 − σ_3 ≤ 2 c_u and no volume change in plastic flow (associated; the Mohr–Coulomb kernel with
+    φ = ψ = 0 and no tension cut-off). For closed-form checks such as Shield's (1955) punch limit; give
+    ν close to 0.5 for an undrained response of the elastic part."""
+
+    model: Literal["tresca"] = "tresca"
+    youngs_modulus: float = Field(3.0e6, gt=0.0, description="Young's modulus E (undrained), Pa")
+    poisson_ratio: float = Field(0.45, gt=-1.0, lt=0.5, description="Poisson's ratio ν, -")
+    undrained_strength: float = Field(10.0e3, gt=0.0, description="undrained shear strength c_u, Pa")
+
+    model_id: ClassVar[int] = MOHR_COULOMB
+    state_names: ClassVar[tuple[str, ...]] = ("e",)
+
+    def strength_line(self) -> tuple[float, float]:
+        return 0.0, 2.0 * self.undrained_strength
+
+    def to_array(self) -> np.ndarray:
+        # the Mohr–Coulomb parameter layout (E, ν, φ, ψ, c, σ_t): φ = ψ = 0, c = c_u, no tension cut-off
+        return np.array(
+            [self.youngs_modulus, self.poisson_ratio, 0.0, 0.0, self.undrained_strength, np.inf], dtype=float
+        )
+
+
 class Hypoplastic(_Material):
     """von Wolffersdorff (1996) hypoplasticity with Niemunis & Herle (1997) intergranular strain."""
 
@@ -111,6 +145,11 @@ class Hypoplastic(_Material):
 
     model_id: ClassVar[int] = HYPOPLASTIC
     state_names: ClassVar[tuple[str, ...]] = _hp.STATE_NAMES
+
+    def strength_line(self) -> tuple[float, float]:
+        """The critical state in triaxial compression, q = M_c p with M_c = 6 sin φ_c/(3 − sin φ_c)."""
+        s = math.sin(math.radians(self.phi_c))
+        return 6.0 * s / (3.0 - s), 0.0
 
     @model_validator(mode="after")
     def _check(self) -> Hypoplastic:
@@ -187,7 +226,7 @@ class Hypoplastic(_Material):
         return cls(**{**PRESETS["karlsruhe"], **overrides})
 
 
-Material = Annotated[Elastic | MohrCoulomb | Hypoplastic, Field(discriminator="model")]
+Material = Annotated[Elastic | MohrCoulomb | Tresca | Hypoplastic, Field(discriminator="model")]
 
 #: named parameter sets (the ``preset`` key of ``[soil]``)
 PRESETS: dict[str, dict[str, Any]] = {
@@ -235,10 +274,15 @@ PRESETS: dict[str, dict[str, Any]] = {
     "elastic": dict(model="elastic", youngs_modulus=50.0e6, poisson_ratio=0.3),
 }
 
-_CLASSES = {"elastic": Elastic, "mohr-coulomb": MohrCoulomb, "hypoplastic": Hypoplastic}
+_CLASSES = {
+    "elastic": Elastic,
+    "mohr-coulomb": MohrCoulomb,
+    "tresca": Tresca,
+    "hypoplastic": Hypoplastic,
+}
 
 
-def material_from_dict(table: dict[str, Any]) -> Elastic | MohrCoulomb | Hypoplastic:
+def material_from_dict(table: dict[str, Any]) -> Material:
     """Build a material from a ``[soil]``-style table: ``preset`` (optional) plus overriding keys.
 
     Keys that belong to the scenario (``layers``) are ignored here."""
@@ -257,7 +301,7 @@ def material_from_dict(table: dict[str, Any]) -> Elastic | MohrCoulomb | Hypopla
     return _CLASSES[model](**merged)
 
 
-def load_material(spec: str) -> Elastic | MohrCoulomb | Hypoplastic:
+def load_material(spec: str) -> Material:
     """A preset name (``fraction-e``) or a TOML file with a ``[soil]`` table (or the keys at top level)."""
     if spec in PRESETS:
         return material_from_dict({"preset": spec})

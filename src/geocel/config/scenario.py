@@ -31,7 +31,7 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from .materials import _CLASSES, PRESETS, Elastic, Hypoplastic, Material, MohrCoulomb
+from .materials import _CLASSES, PRESETS, Elastic, Hypoplastic, Material, MohrCoulomb, Tresca
 
 __all__ = [
     "Contact",
@@ -55,7 +55,7 @@ __all__ = [
     "scenario_to_dict",
 ]
 
-MaterialModel = Elastic | MohrCoulomb | Hypoplastic
+MaterialModel = Elastic | MohrCoulomb | Tresca | Hypoplastic
 
 
 class ScenarioError(ValueError):
@@ -328,6 +328,13 @@ class Contact(_Table):
     friction: float | None = Field(
         None, ge=0.0, le=2.0, description="Coulomb friction coefficient μ, - (None: tan(2/3 φ_c))"
     )
+    formulation: Literal["band", "edge"] = Field(
+        "band",
+        description="band: soil nodes within half a cell of the shaft and one cell below the base are "
+        "projected (acts up to a cell larger and deeper: Shield's punch +20 %); edge: the soil is constrained "
+        "where the pile surface crosses the grid's edges (punch and wished-in-place pile exact, but soil flows "
+        "into the cells cut by the base rim during jacking; experimental, see docs/numerics.md)",
+    )
 
     def friction_coefficient(self, material: MaterialModel) -> float:
         """μ, -: ``friction`` if given, else tan(2/3 φ) with φ = φ_c (hypoplastic) or φ (Mohr–Coulomb)."""
@@ -389,15 +396,26 @@ class Reference(_Table):
 class Solver(_Table):
     """``[solver]``: numerical controls (all optional)."""
 
+    @model_validator(mode="before")
+    @classmethod
+    def _removed_keys(cls, data: Any) -> Any:
+        if isinstance(data, dict) and "hourglass_limit" in data:
+            raise ValueError(
+                "[solver] hourglass_limit was removed in 0.2: the hourglass control is physical (the soil's "
+                "stiffness, bounded by its strength); delete the key"
+            )
+        return data
+
     safety_factor: float = Field(0.9, gt=0.0, le=1.0, description="Δt = safety_factor × min L_e/c_d, -")
     hourglass: float = Field(
-        0.005, ge=0.0, le=1.0, description="viscous hourglass control κ (force ∝ ρ c, grows with √S), -"
+        0.005, ge=0.0, le=1.0, description="viscous hourglass damping κ (force ∝ ρ c, grows with √S), -"
     )
     hourglass_stiffness: float = Field(
-        0.05, ge=0.0, le=1.0, description="stiffness hourglass control κ_s (force ∝ M, rate-independent), -"
-    )
-    hourglass_limit: float = Field(
-        0.1, ge=0.0, le=10.0, description="limit β of the stiffness hourglass force, |Q| ≤ β p V^(2/3), -"
+        1.0,
+        ge=0.0,
+        le=10.0,
+        description="multiplier of the physical hourglass stiffness (assumed-strain energy of the modes at the "
+        "soil's unloading shear modulus, bounded by the soil's strength at the cell's sub-points); 1 = physical, -",
     )
     bulk_viscosity_linear: float = Field(0.06, ge=0.0, le=1.0, description="linear bulk viscosity b_1, -")
     bulk_viscosity_quadratic: float = Field(

@@ -19,7 +19,17 @@ import numpy as np
 
 from ..bodies.pile import ContactLoad, PileBody
 from ..euler.lagrange import node_mass
-from .kernels import contact_work, exclude_soil, pile_fraction, project_contact, rescale_momentum
+from .kernels import (
+    contact_work,
+    exclude_soil,
+    pile_fraction,
+    project_contact,
+    project_edges,
+    rescale_momentum,
+)
+
+#: the contact formulations (see :class:`ContactCoupling`)
+FORMULATIONS = ("band", "edge")
 
 
 @dataclass
@@ -35,9 +45,11 @@ class ContactForces:
 class ContactCoupling:
     """Contact of one pile with one :class:`geocel.solver.field.SoilField`.
 
-    ``friction``: Coulomb μ (-), ≥ 0. ``band``: contact distance (m, default half the smallest cell size
-    of the grid); ``base_band``: contact distance below the base (m, default the smallest cell size), see
-    :mod:`geocel.contact.kernels`.
+    ``friction``: Coulomb μ (-), ≥ 0. ``formulation``: "band" projects the soil nodes within ``band`` of the
+    shaft (m, default half the smallest cell) and ``base_band`` below the base (m, default one cell);
+    "edge" constrains the soil where the pile surface crosses the grid's edges (:func:`project_edges`, no
+    distance to choose; ``sweeps`` Gauss–Seidel passes over constraints that share nodes). See
+    :mod:`geocel.contact.kernels` and docs/numerics.md for what each gets right and wrong.
     """
 
     def __init__(
@@ -45,14 +57,24 @@ class ContactCoupling:
         field,
         pile: PileBody,
         friction: float,
+        formulation: str = "band",
         band: float | None = None,
         base_band: float | None = None,
+        sweeps: int = 3,
     ) -> None:
         if not (math.isfinite(friction) and friction >= 0.0):
             raise ValueError(f"friction coefficient μ = {friction!r} must be a finite number ≥ 0")
         self.field = field
         self.pile = pile
         self.mu = float(friction)
+        if formulation not in FORMULATIONS:
+            raise ValueError(
+                f"contact formulation = {formulation!r}: choose one of {', '.join(FORMULATIONS)}"
+            )
+        if int(sweeps) < 1:
+            raise ValueError(f"contact sweeps = {sweeps!r} must be ≥ 1")
+        self.formulation = formulation
+        self.sweeps = int(sweeps)
         g = field.grid
         h = min(g.hx.min(), g.hy.min(), g.hz.min())  # the grid is finest around the pile
         self.band = 0.5 * h if band is None else float(band)
@@ -60,6 +82,7 @@ class ContactCoupling:
         for what, b in (("band", self.band), ("base_band", self.base_band)):
             if not (math.isfinite(b) and b >= 0.0):
                 raise ValueError(f"contact {what} = {b!r} must be a finite length ≥ 0 (m)")
+        self._on_edge = np.zeros((g.nx + 1, g.ny + 1, g.nz + 1), dtype=np.bool_)
         nl = pile.load.layer.shape[0]
         self._out_layer = np.zeros((g.nx + 1, nl, 6))
         self._out_node = np.zeros((g.nx + 1, 7))
@@ -75,6 +98,12 @@ class ContactCoupling:
         self.overfilled_volume = 0.0
 
     # --- geometry ---------------------------------------------------------------------------------------
+    def _pad(self) -> float:
+        """Widening of the node box around the pile: one cell of the grid's finest size, so that every edge
+        the surface crosses has both nodes in the box."""
+        g = self.field.grid
+        return max(float(min(g.hx.min(), g.hy.min(), g.hz.min())), self.band, self.base_band)
+
     def _box(self, pad: float) -> tuple[int, int, int, int, int, int]:
         """Node index box of the pile's extent in the grid, widened by ``pad``."""
         s = self.pile.surface()
@@ -125,7 +154,7 @@ class ContactCoupling:
     def before_nodes(self) -> None:
         """Keep v^{n−½} of the nodes the projection may touch (the pile has already moved this step), for
         the work of the contact forces (:func:`contact_work`)."""
-        self._box_now = i0, i1, j0, j1, k0, k1 = self._box(max(self.band, self.base_band))
+        self._box_now = i0, i1, j0, j1, k0, k1 = self._box(self._pad())
         self._v_old = self.field.v[i0:i1, j0:j1, k0:k1].copy()
 
     def apply(self, dt: float) -> None:
@@ -143,10 +172,20 @@ class ContactCoupling:
         on = self._out_node
         ol[...] = 0.0
         on[...] = 0.0
+        edge = self._on_edge
+        edge[i0:i1, j0:j1, k0:k1] = False
+        band, base_band = self.band, self.base_band
+        if self.formulation == "edge":
+            project_edges(
+                g.x, g.y, g.z, i0, i1, j0, j1, k0, k1, f.nmass, f.v, f.fix, f.mass_tiny,
+                s.cx, s.cy, s.radius, s.z_apex, s.z_shoulder, self.mu, s.layer_z, s.layer_v, dt, self.sweeps,
+                edge, ol[: i1 - i0], on[: i1 - i0],
+            )  # fmt: skip
+            band = base_band = 0.0  # then only nodes inside the pile that no crossing edge reaches
         project_contact(
             g.x, g.y, g.z, i0, i1, j0, j1, k0, k1, f.nmass, f.v, f.fix, f.mass_tiny,
-            s.cx, s.cy, s.radius, s.z_apex, s.z_shoulder, self.band, self.base_band, self.mu,
-            s.layer_z, s.layer_v, dt, ol[: i1 - i0], on[: i1 - i0],
+            s.cx, s.cy, s.radius, s.z_apex, s.z_shoulder, band, base_band, self.mu,
+            s.layer_z, s.layer_v, dt, ol[: i1 - i0], on[: i1 - i0], edge,
         )  # fmt: skip
         tot = on[: i1 - i0].sum(axis=0)
         layer = ol[: i1 - i0].sum(axis=0)

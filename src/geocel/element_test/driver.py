@@ -15,13 +15,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..config.materials import Elastic, Hypoplastic, MohrCoulomb
+from ..config.materials import Elastic, Hypoplastic, MohrCoulomb, Tresca
 from ..materials import flags as fl
 from ..materials.kernels import update_point
 from ..materials.tensor import invariants_pq
 from .mixed import elastic_guess, solve_increment
 
-MaterialT = Elastic | MohrCoulomb | Hypoplastic
+MaterialT = Elastic | MohrCoulomb | Tresca | Hypoplastic
 
 KINDS = (
     "isotropic",

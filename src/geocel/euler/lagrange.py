@@ -181,6 +181,70 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
     return t[0], t[1], t[2], t[3], t[4]
 
 
+#: unloading shear modulus per P-wave modulus, G/M = (1 − 2ν)/(2(1 − ν)) at ν = 0.2
+G_FROM_M = 0.375
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def subpoint_limit(s2, c, a, d, h, mf, cf):
+    """Largest amplitude A (Pa) of mode α's stress variation in direction d that keeps both sub-point
+    stresses σ ± A P of the cell within the strength cone q ≤ mf p + cf (exact for the cone, not
+    linearised): a variation along the cone is free, one across it is bounded by the strength reserve.
+    P is uniaxial e_d⊗e_d for the bending modes (d among the mode's coordinates, and ξηζ) and the shear
+    e_d⊗e_b + e_b⊗e_d of the warping modes (b the mode's coordinate with the smaller cell size)."""
+    p = -(s2[c, 0] + s2[c, 1] + s2[c, 2]) / 3.0
+    sd = (s2[c, 0] + p, s2[c, 1] + p, s2[c, 2] + p)
+    q2 = 1.5 * (sd[0] ** 2 + sd[1] ** 2 + sd[2] ** 2 + 2.0 * (s2[c, 3] ** 2 + s2[c, 4] ** 2 + s2[c, 5] ** 2))
+    L0 = mf * p + cf
+    if L0 <= 0.0:
+        return 0.0
+    b = -1
+    if a != 3:
+        b0 = 0 if a != 1 else 1
+        c0 = 1 if a == 0 else 2
+        if d != b0 and d != c0:
+            b = b0 if h[b0] <= h[c0] else c0
+    if b < 0:  # uniaxial: s_P:s_P = 2/3, p_P = −1/3, s:s_P = s_dd
+        a2 = 1.0 - mf * mf / 9.0
+        b1 = 3.0 * sd[d] + 2.0 * mf * L0 / 3.0
+    else:  # shear: s_P:s_P = 2, p_P = 0, s:s_P = 2 s_db
+        lo = min(d, b)
+        hi = max(d, b)
+        sdb = s2[c, 3] if lo == 0 and hi == 1 else (s2[c, 4] if lo == 0 else s2[c, 5])
+        a2 = 3.0
+        b1 = 6.0 * sdb
+    c0_ = q2 - L0 * L0
+    if c0_ >= 0.0:
+        return 0.0
+    if a2 <= 1e-12:
+        return -c0_ / max(abs(b1), 1e-300)
+    return (-abs(b1) + np.sqrt(b1 * b1 - 4.0 * a2 * c0_)) / (2.0 * a2)
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def hourglass_stiffness(a, d, hx, hy, hz):
+    """Stiffness K_αd/(G V) of hourglass mode α (ξη, ηζ, ξζ, ξηζ) in direction d of a rectangular cell,
+    from the strain energy of the mode's velocity field v_d = (q_αd/8) H_α with assumed strains
+    (Belytschko & Bindeman 1993): the normal strain ∂v_d/∂x_d of a bending mode (d among the mode's
+    coordinates) is kept at the isochoric Young's modulus E = 3G (no volumetric locking), its parasitic
+    shear (varying along x_d) dropped; the shears of a warping mode (d not among them) are kept at G.
+    With half-sizes A_x = h_x/2 …: bending K = E V/(3 A_d²) (ξηζ: E V/(9 A_d²)); warping
+    K = G V (A_b⁻² + A_c⁻²)/3 over the mode's coordinates b, c. The generalised stress rate is then
+    Q̇_αd = K_αd q_αd / 64 (U = ½ K (u_αd/8)², f_I = −Σ Q_αd h_αI)."""
+    i4x = 4.0 / (hx * hx)  # 1/A² with A = h/2
+    i4y = 4.0 / (hy * hy)
+    i4z = 4.0 / (hz * hz)
+    inv = (i4x, i4y, i4z)
+    if a == 3:
+        return 3.0 * inv[d] / 9.0
+    # the mode's two coordinates: ξη → (x, y), ηζ → (y, z), ξζ → (x, z)
+    b = 0 if a != 1 else 1
+    c = 1 if a == 0 else 2
+    if d == b or d == c:
+        return 3.0 * inv[d] / 3.0
+    return (inv[b] + inv[c]) / 3.0
+
+
 @njit(**KERNEL_OPTIONS)
 def _velocity_gradient(v, i, j, k, hx, hy, hz):
     """Velocity gradient L (9-tuple, row-major L_ab = ∂v_a/∂x_b) at the centre of cell (i, j, k) and the
@@ -253,7 +317,8 @@ def update_cells(
     kappa,
     kappa_s,
     hoff,
-    beta,
+    mf,
+    cf,
 ):
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (the model
     given by ``tag``, :func:`geocel.materials.kernels.model_tag`).
@@ -262,15 +327,15 @@ def update_cells(
     (stable Δt of the cells, index of the cell governing Δt). Cells below :data:`PHI_MIN` are set
     stress-free. (The energies are accounted in :func:`advance_nodes`.)
 
-    Hourglass control has a viscous part (κ, force ∝ ρ c × hourglass velocity) and a stiffness part
-    (κ_s, force ∝ M × accumulated hourglass displacement, limited to β p V^{2/3} per mode and direction,
-    p the cell's mean pressure). The stiffness part is kept per unit soil volume in
-    ``state[..., hoff:hoff + 12]`` so that the remap carries it with the soil like any other state. It does
-    not depend on the density or on the rate, so it is unchanged by MGS and by the jacking velocity, unlike
-    the viscous part, which grows with ρ c ∝ √S. The limit keeps it bounded in the Eulerian setting: under a
-    pile the same soil sees a steady hourglass velocity for a long time, and an unlimited stiffness force
-    then grows without bound (measured: unstable within 0.3 m of penetration). Like friction, the limit
-    scales with the pressure, so the resistance stays a fixed fraction of the stress forces.
+    Hourglass control is physical (docs/numerics.md): the generalised hourglass stresses grow with the
+    hourglass strain at the stiffness of the mode's strain energy (:func:`hourglass_stiffness`) with the
+    soil's unloading shear modulus (:data:`G_FROM_M` × M), and each mode's stress variation is kept within
+    what the soil's strength allows at both of the cell's sub-points (:func:`subpoint_limit`, the strength
+    cone q ≤ ``mf`` p + ``cf`` of the soil model): free along the cone, bounded across it, no coefficient.
+    There is no density or rate in it (MGS- and velocity-invariant). ``kappa_s`` multiplies it (1:
+    physical). The 12 hourglass stresses (per unit soil volume, Pa) and the modes' shear modulus are kept in
+    ``state[..., hoff:hoff + 13]`` so the remap carries them with the soil. A small viscous part
+    κ ρ c V^{2/3}/8 (``kappa``) damps the modes' ringing.
     """
     nx, ny, nz = Vs.shape
     n = nx * ny * nz
@@ -326,19 +391,26 @@ def update_cells(
                     if tr < 0.0:
                         qn += rho * (b2 * le * tr) ** 2
                     q[i, j, k] = qn
-                    # hourglass control, stored per unit cell mass (multiplied by the current mass when the
-                    # forces are gathered). Viscous: Q_α = κ ρ c V^{2/3} / 8 · q_α. Stiffness: the rate
-                    # form of Q_α = κ_s M V^{2/3} / (8 L_e) · u_α with u_α the hourglass displacement
-                    # (ρ c → ρ c² Δt / L_e), accumulated per unit soil volume.
-                    a23 = vol ** (2.0 / 3.0) / vol  # V^{2/3} per unit volume, shared by the three terms
+                    # tangent shear modulus of this step's update, measured where the deviatoric strain
+                    # increment is large enough for the stress change to resolve it; else the last value
+                    # the stiffness of the modes: the soil's stiffest current response (its unloading
+                    # shear modulus, from the P-wave modulus M with ν = 0.2), as the sub-points of a fully
+                    # integrated cell that unload would show
+                    gt = G_FROM_M * M
+                    st2[c, hoff + 12] = gt
+                    # hourglass resistance, stored per unit cell mass (multiplied by the current mass when the
+                    # forces are gathered): viscous κ ρ c V^{2/3}/8 · q_α plus the physical stresses
+                    a23 = vol ** (2.0 / 3.0) / vol  # V^{2/3} per unit volume
                     chg = kappa * cd * a23 / 8.0
-                    khg = kappa_s * M * a23 / (8.0 * le) * dt
-                    pm = max(-(s2[c, 0] + s2[c, 1] + s2[c, 2]) / 3.0, 0.0)
-                    smax = beta * pm * a23
+                    kfac = kappa_s * gt * dt / 64.0
+                    hcell = (hx[i], hy[j], hz[k])
                     for a in range(4):
                         for d in range(3):
-                            sq = st2[c, hoff + 3 * a + d] + khg * qh[3 * a + d]
-                            sq = min(max(sq, -smax), smax)
+                            sq = st2[c, hoff + 3 * a + d]
+                            sq += kfac * hourglass_stiffness(a, d, hx[i], hy[j], hz[k]) * qh[3 * a + d]
+                            fac = (36.0 if a == 3 else 12.0) * hcell[d]  # stress amplitude per sq
+                            lim = subpoint_limit(s2, c, a, d, hcell, mf, cf) / fac
+                            sq = min(max(sq, -lim), lim)
                             st2[c, hoff + 3 * a + d] = sq
                             hg[i, j, k, a, d] = chg * qh[3 * a + d] + sq / rho
                     # stable step of this cell, with the viscosity correction of the explicit scheme

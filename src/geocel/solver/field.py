@@ -15,21 +15,29 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit, prange
 
-from ..config.materials import Elastic, Hypoplastic, MohrCoulomb
-from ..euler.lagrange import PHI_MIN, advance_nodes, characteristic_length, node_mass, update_cells
+from ..config.materials import Elastic, Hypoplastic, MohrCoulomb, Tresca
+from ..euler.lagrange import (
+    G_FROM_M,
+    PHI_MIN,
+    advance_nodes,
+    characteristic_length,
+    node_mass,
+    update_cells,
+)
 from ..euler.remap import remap
 from ..grid import Grid
 from ..materials.kernels import model_tag
 from ..materials.kernels import update_cells as material_update_cells
 from ..materials.tensor import KERNEL_OPTIONS
 
-Material = Elastic | MohrCoulomb | Hypoplastic
+Material = Elastic | MohrCoulomb | Tresca | Hypoplastic
 
 #: band of void ratios that bounds the soil density of a cell in the remap (dust cells near the surface)
 E_MIN, E_MAX = 0.1, 3.0
 
-#: components of the stiffness hourglass control kept after the material state (4 modes × 3 directions)
-HOURGLASS_STATE = 12
+#: components of the hourglass control kept after the material state: the generalised hourglass stresses
+#: (4 modes × 3 directions, per unit soil volume, Pa) and the tangent shear modulus G_t (Pa) that drives them
+HOURGLASS_STATE = 13
 ENERGY_KEYS = (
     "kinetic",
     "internal",
@@ -106,9 +114,9 @@ class SolverSettings:
     """Numerical settings (defaults as in Abaqus/Explicit where a counterpart exists)."""
 
     safety_factor: float = 0.9
-    hourglass: float = 0.005  # κ of the viscous hourglass control (force ∝ ρ c: grows with √S under MGS)
-    hourglass_stiffness: float = 0.05  # κ_s of the stiffness hourglass control (force ∝ M: rate-independent)
-    hourglass_limit: float = 0.1  # β: |Q_α| ≤ β p V^{2/3} for the stiffness part
+    hourglass: float = 0.005  # κ of the viscous hourglass damping (force ∝ ρ c: grows with √S under MGS)
+    #: multiplier of the physical hourglass stiffness (assumed strain, bounded by the soil's strength); 1 = physical
+    hourglass_stiffness: float = 1.0
     bulk_viscosity_linear: float = 0.06
     bulk_viscosity_quadratic: float = 1.2
     gravity: float = 9.81  # m/s², before scaling
@@ -130,6 +138,8 @@ class SoilField:
         if self.scaling < 1.0:
             raise ValueError(f"mass_gravity = {self.scaling} must be ≥ 1")
         self.model_id = self.material.model_id
+        #: the soil's strength line in triaxial compression, q_f = M_f p + c_f (bounds the hourglass stresses)
+        self._strength = self.material.strength_line()
         self.model_tag = model_tag(self.model_id)
         self.prm = self.material.to_array()
         self.gravity = self.settings.gravity / self.scaling
@@ -145,8 +155,8 @@ class SoilField:
         self.Vcur = self.volume.copy()
         self.mass = np.zeros(shape)
         self.stress = np.zeros(shape + (6,))
-        #: the material's state, then the 12 components of the stiffness hourglass control (per unit soil
-        #: volume, Pa), so that the remap and the contact's exclusion step carry both with the soil
+        #: the material's state, then the hourglass control's 12 generalised stresses (per unit soil volume, Pa)
+        #: and tangent shear modulus (Pa), so that the remap and the contact's exclusion step carry them
         self.nstate = nstate
         self.state = np.zeros(shape + (nstate + HOURGLASS_STATE,))
         self.q = np.zeros(shape)
@@ -226,6 +236,23 @@ class SoilField:
         self.mass_tiny = 1e-9 * full_node
         self.initial_mass = float(self.mass.sum())
         self.dt = self.settings.safety_factor * self.stable_time_step()
+        # the hourglass modes' shear modulus (each step sets it from the updated state)
+        self.state[..., self.nstate + 12] = G_FROM_M * self._modulus_now()
+
+    def _modulus_now(self) -> np.ndarray:
+        """P-wave modulus M of every cell's current state (Pa; 0 where there is no soil)."""
+        soil = self.active3 & (self.Vs > PHI_MIN * self.volume)
+        out = np.zeros(self.Vs.shape)
+        n = int(soil.sum())
+        if n == 0:
+            return out
+        s = self.stress[soil].copy()
+        st = self.state[soil].copy()
+        M = np.empty(n)
+        f = np.empty(n, dtype=np.int64)
+        material_update_cells(self.model_id, self.prm, s, st, np.zeros((n, 6)), np.zeros((n, 3)), 0.0, M, f)
+        out[soil] = M
+        return out
 
     def stable_time_step(self) -> float:
         """Critical step min L_e/c over the soil cells, with c = √(M/ρ) from the current material stiffness
@@ -233,12 +260,7 @@ class SoilField:
         soil = self.active3 & (self.Vs > PHI_MIN * self.volume)
         if not soil.any():
             return np.inf
-        n = int(soil.sum())
-        s = self.stress[soil].copy()
-        st = self.state[soil].copy()
-        M = np.empty(n)
-        f = np.empty(n, dtype=np.int64)
-        material_update_cells(self.model_id, self.prm, s, st, np.zeros((n, 6)), np.zeros((n, 3)), 0.0, M, f)
+        M = self._modulus_now()[soil]
         rho = self.mass[soil] / self.Vs[soil]
         le = characteristic_length(self.hx[:, None, None], self.hy[None, :, None], self.hz[None, None, :])
         le = np.broadcast_to(le, self.Vs.shape)[soil]
@@ -304,17 +326,18 @@ class SoilField:
             st.hourglass,
             st.hourglass_stiffness,
             self.nstate,
-            st.hourglass_limit,
+            *self._strength,
         )
         # a NaN anywhere reaches these sums (this step or the next): no extra pass over the arrays
         if not (np.isfinite(ke) and np.isfinite(dEi)):
             raise InstabilityError(*self._diagnose(dt))
         t2 = time.perf_counter()
         deferred = st.remap_courant > 0.0
-        if deferred:
-            courant = accumulate_displacement(*self._node_reciprocal, self.v, dt, self.u_remap)
+        if not deferred:
+            self.u_remap[...] = 0.0
+        courant = accumulate_displacement(*self._node_reciprocal, self.v, dt, self.u_remap)
         if not deferred or courant >= st.remap_courant:
-            self._remap(dt, parity, self.u_remap if deferred else None)
+            self._remap(dt, parity, self.u_remap)
         t3 = time.perf_counter()
         e = self.energy
         e["kinetic"] = ke
@@ -335,9 +358,9 @@ class SoilField:
         tm["remap"] += t3 - t2
         tm["bookkeeping"] += t4 - t3
 
-    def _remap(self, dt: float, parity: int | None, displacement: np.ndarray | None) -> None:
-        """Remap back to the fixed grid: the mesh motion is v Δt of this step, or the accumulated
-        ``displacement`` (then reset); the sweep order alternates from one remap to the next."""
+    def _remap(self, dt: float, parity: int | None, displacement: np.ndarray) -> None:
+        """Remap back to the fixed grid with the mesh motion ``displacement`` accumulated since the last
+        remap (then reset); the sweep order alternates from one remap to the next."""
         ke_before = _kinetic_energy(self.nmass, self.v)
         lost, capped = remap(
             self.hx,
@@ -360,8 +383,7 @@ class SoilField:
             self.grain_density / (1.0 + E_MIN),
             displacement,
         )
-        if displacement is not None:
-            displacement[...] = 0.0
+        displacement[...] = 0.0
         if self.contact is not None:
             self.contact.after_remap()
         _void_ratio_from_density(

@@ -86,7 +86,6 @@ def build_field(scenario: Scenario, grid: Grid | None = None) -> SoilField:
         safety_factor=s.safety_factor,
         hourglass=s.hourglass,
         hourglass_stiffness=s.hourglass_stiffness,
-        hourglass_limit=s.hourglass_limit,
         bulk_viscosity_linear=s.bulk_viscosity_linear,
         bulk_viscosity_quadratic=s.bulk_viscosity_quadratic,
         gravity=s.gravity,
@@ -97,7 +96,9 @@ def build_field(scenario: Scenario, grid: Grid | None = None) -> SoilField:
     field.fill_below(0.0)
     if scenario.pile is not None:
         pile = build_pile_body(scenario)
-        field.contact = ContactCoupling(field, pile, scenario.contact.friction_coefficient(mat))
+        field.contact = ContactCoupling(
+            field, pile, scenario.contact.friction_coefficient(mat), scenario.contact.formulation
+        )
         field.contact.remove_soil_inside()  # a pile wished in place to its initial embedment
     layers = [(layer.top, scenario.soil.void_ratio_of(layer, mat)) for layer in scenario.soil.layers]
     field.geostatic(layers, k0=scenario.initial.k0, intergranular=scenario.initial.intergranular_strain)
