@@ -2,7 +2,7 @@
 the base resistance depends on S at the `demo` resolution, with the same cells at the pile as the benchmark).
 
     python benchmarks/base_resistance_vs_scaling.py [--kind rigid] [--scaling 1 10] [--penetration 1.2]
-        [--hourglass K] [--hourglass-stiffness KS] [--resolution demo]
+        [--hourglass K] [--hourglass-stiffness KS] [--resolution demo] [--contact band|edge]
 
 Prints, per S: wall time, steps, soil volume moved out of the pile by the exclusion step (and the part that
 found no free space), max kinetic/internal energy ratio, then q_b (MPa, averaged over one cell of depth) at
@@ -27,10 +27,17 @@ from geocel.solver.simulation import Simulation
 
 
 def run(
-    kind: str, S: float, penetration: float, root: Path, solver: dict, resolution: str = "demo"
+    kind: str,
+    S: float,
+    penetration: float,
+    root: Path,
+    solver: dict,
+    resolution: str = "demo",
+    contact: str = "band",
 ) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray]:
     d = preset_dict("deeks-white", resolution=resolution, penetration=penetration, velocity=0.5)
     d.setdefault("solver", {}).update(solver)
+    d.setdefault("contact", {})["formulation"] = contact
     # a 4 m wide, 6 m deep container instead of 21.25 m × 28 m: the base resistance is set near the pile
     d["domain"].update(
         radius=4.0, soil_depth=6.0, void_height=0.6, fine_depth=penetration + 1.5, max_size=0.8
@@ -64,6 +71,7 @@ def main() -> None:
         "--hourglass-stiffness", type=float, help="stiffness hourglass κ_s (default: the preset's)"
     )
     ap.add_argument("--resolution", default="demo", choices=("demo", "coarse", "paper"))
+    ap.add_argument("--contact", default="band", choices=("band", "edge"), help="contact formulation")
     a = ap.parse_args()
     solver = {}
     if a.hourglass is not None:
@@ -75,7 +83,7 @@ def main() -> None:
     cols = {}
     with tempfile.TemporaryDirectory() as tmp:
         for S in a.scaling:
-            info, z, qb, qs = run(a.kind, S, a.penetration, Path(tmp), solver, a.resolution)
+            info, z, qb, qs = run(a.kind, S, a.penetration, Path(tmp), solver, a.resolution, a.contact)
             print(f"{a.kind} S = {S:g}: {info}", flush=True)
             cols[S] = (np.interp(depths, z, qb) / 1e6, np.interp(depths, z, qs) / 1e3)
     print("tip depth (m) " + " ".join(f"q_b S={S:g} (MPa) q_s S={S:g} (kPa)" for S in cols))
