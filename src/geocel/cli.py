@@ -189,9 +189,9 @@ def demo(
         f"quasi-static check: max kinetic/internal energy = {ratio:.2%} → [bold]{v}[/bold] "
         f"(≤ 5 % valid, ≤ 10 % caution)"
     )
-    import pandas as pd
+    from .io.history import read_history
 
-    h = cell_average(pd.read_csv(out / "history.csv"), width)
+    h = cell_average(read_history(out / "history.csv"), width)
     for z in (1.0, 2.0, 3.0):
         qb = value_at_depth(h, "qb", z)
         if np.isfinite(qb):

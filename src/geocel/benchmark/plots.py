@@ -11,8 +11,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-#: limits of the quasi-static check on max(kinetic/internal energy)
-VALID, CAUTION = 0.05, 0.10
+from ..io.history import read_history  # noqa: E402
+from ..solver.quasi_static import CAUTION, VALID, verdict  # noqa: E402
+
+__all__ = ["CAUTION", "VALID", "cell_average", "plot_curves", "plot_run", "value_at_depth", "verdict"]
 
 
 def cell_average(h: pd.DataFrame, width: float) -> pd.DataFrame:
@@ -79,12 +81,5 @@ def plot_run(run_dir: str | Path, label: str | None = None, width: float = 0.0) 
     """q_b, q_s and energy-ratio figure of one run directory (``pile_curves.png`` in it), q averaged over
     ``width`` m of depth (:func:`cell_average`)."""
     run_dir = Path(run_dir)
-    h = cell_average(pd.read_csv(run_dir / "history.csv"), width)
+    h = cell_average(read_history(run_dir / "history.csv"), width)
     return plot_curves({label or run_dir.name: h}, run_dir / "pile_curves.png", title=label or run_dir.name)
-
-
-def verdict(ratio: float) -> str:
-    """Quasi-static verdict of max(KE/IE): valid ≤ 5 %, caution ≤ 10 %, else invalid."""
-    if not ratio == ratio:  # NaN
-        return "unknown"
-    return "valid" if ratio <= VALID else ("caution" if ratio <= CAUTION else "invalid")
