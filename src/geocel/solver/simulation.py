@@ -231,7 +231,7 @@ class Simulation:
         self.progress = progress
         self.write_fields = write_fields
         root = Path(out or o.directory or f"runs/{scenario.name}")
-        self.run_dir = RunDirectory(root)
+        self.run_dir = RunDirectory(root, create=False)  # made by run() (not for a refused restart)
         self.field: SoilField | None = None
         self.pile: PileBody | None = None
         self.contact: ContactCoupling | None = None
@@ -592,10 +592,10 @@ class Simulation:
         checkpoint's, except, with ``allow_changes``, in the keys that are safe to change; a finished run is
         left as it is). Raises :class:`~geocel.io.checkpoint.CheckpointError` if no checkpoint can be read."""
         rd = self.run_dir
-        rd.check_writable()
         self._scenario_record = resolved_dict(self.scenario)
         self._fingerprint = scenario_fingerprint(self._scenario_record)
         ckpt = self._read_checkpoint(allow_changes) if restart else None
+        rd.check_writable()
         self.field = build_field(self.scenario)
         f = self.field
         if f.contact is not None:
