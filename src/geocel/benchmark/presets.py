@@ -56,7 +56,8 @@ def preset_dict(
             raise ValueError(f"unknown resolution {resolution!r}; available: {', '.join(RESOLUTIONS)}")
         d["domain"].update(RESOLUTIONS[resolution])
         if "fine_depth" not in RESOLUTIONS[resolution]:
-            d["domain"]["fine_depth"] = d["loading"]["penetration"] + 2.0
+            # (capped at the soil depth: a penetration too deep is then reported as such, not as fine_depth)
+            d["domain"]["fine_depth"] = min(d["loading"]["penetration"] + 2.0, d["domain"]["soil_depth"])
     return d
 
 

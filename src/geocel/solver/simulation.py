@@ -680,8 +680,13 @@ class Simulation:
             else:
                 self.status = "finished"
             self.wall_time = _time.perf_counter() - t_start
-            if self.status == "finished":
+            if (
+                self.status == "finished"
+            ):  # (the schedules advanced, so a continuation does not repeat the row)
+                z = self.head_displacement()
+                self._due("history", z)
                 history.write(self._history_row(self.wall_time))
+                self._due("fields", z)
                 self._write_fields()
             if self.status == "unstable":
                 self._write_fields()
