@@ -501,3 +501,34 @@ def test_a_variant_with_a_broken_summary_is_resumed_from_its_checkpoint(finished
     else:
         assert res["unreadable"] == {} and "Unreadable" not in report
     assert (out / "curves.png").is_file() and "penetration 0.06 m" in report
+
+
+def test_a_full_disk_stops_with_one_line_and_the_previous_checkpoint_restarts(
+    reference, tmp_path, monkeypatch
+):
+    import errno
+
+    toml = tmp_path / "s.toml"
+    toml.write_text(dump_scenario(scenario_from_dict(PILE)))
+    root = tmp_path / "run"
+    real = np.savez
+    calls = []
+
+    def disk_full_on_the_third(file, *a, **k):
+        calls.append(1)
+        if len(calls) == 3:
+            raise OSError(errno.ENOSPC, "No space left on device", str(file.name))
+        return real(file, *a, **k)
+
+    monkeypatch.setattr(np, "savez", disk_full_on_the_third)
+    res = runner.invoke(app, ["run", str(toml), "--out", str(root), "--no-fields"])
+    monkeypatch.undo()
+    assert res.exit_code == 2, res.output
+    (line,) = _error_lines(res.output)
+    assert "No space left on device while writing the outputs at step 300" in line
+    assert "checkpoint of step 200" in line and "--restart" in line
+    assert ckpt.load_checkpoint(root / "checkpoint.npz")[1]["step"] == 200
+    assert not list(root.glob("*.tmp*"))
+    s = _sim(root).run(restart=True)
+    assert s["steps"] == reference[1]["steps"]
+    pd.testing.assert_frame_equal(_history(root), _history(reference[0]), rtol=1e-12, atol=0.0)

@@ -723,6 +723,19 @@ class Simulation:
                 f"stopped part-way through a step: kept the complete state of step {f.step_count}"
             )
             raise
+        except OSError as err:  # a full disk, a directory gone: what was written before stays readable
+            self.status = "failed"
+            kept = (
+                f"checkpoint of step {self._checkpoint_step}"
+                if self._checkpoint_step >= 0
+                else "no checkpoint"
+            )
+            raise OSError(
+                err.errno,
+                f"{err.strerror or err} while writing the outputs at step {f.step_count}; the {kept} and the "
+                "history up to it are intact: fix the cause and continue with --restart",
+                err.filename,
+            ) from err
         except BaseException:
             self.status = "failed"
             raise
