@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..config.scenario import Scenario, ScenarioError
+from ..config.scenario import Scenario
 from ..io.history import read_history
 from .plots import cell_average, plot_curves, value_at_depth, verdict
-from .presets import RESOLUTIONS, preset_dict
+from .presets import RESOLUTIONS, preset_dict, scenario_from_options
 
 KINDS = {"solid": "conventional", "coupled": "coupled", "rigid": "rigid"}
 #: names accepted for a pile kind in ``--variants`` (the table's own name of the solid pile included)
@@ -213,8 +213,6 @@ def plan_benchmark(
 ) -> BenchmarkPlan:
     """Check every option and every existing variant directory before anything is computed; raises
     ``ValueError`` with one line naming the option, the value and what is allowed."""
-    from ..config.scenario import scenario_from_dict
-
     if resolution not in RESOLUTIONS:
         raise ValueError(f"--resolution = {resolution!r}: unknown (allowed: {', '.join(RESOLUTIONS)})")
     for option, value in (("--penetration", penetration), ("--velocity", velocity)):
@@ -236,20 +234,12 @@ def plan_benchmark(
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out = {str(out)!r}: exists and is not a directory")
-    options = {"[loading].penetration": "--penetration", "[loading].velocity": "--velocity"}
     states = {}
     for k, S, vf in todo:
         name = variant_name(k, S, vf)
-        try:
-            sc = scenario_from_dict(variant_dict(k, S, resolution, penetration, velocity, vf))
-        except ScenarioError as err:
-            problems = []
-            for p in err.problems:
-                for key, option in options.items():
-                    if p.startswith(key):
-                        p = option + p[len(key) :]
-                problems.append(p)
-            raise ValueError(f"variant {name}: " + "; ".join(problems)) from None
+        sc = scenario_from_options(
+            variant_dict(k, S, resolution, penetration, velocity, vf), f"variant {name}: "
+        )
         states[name] = variant_state(out / name, sc, rerun)
     return BenchmarkPlan(
         out, resolution, penetration, velocity, todo, states, ref,

@@ -16,7 +16,10 @@ from __future__ import annotations
 import tomllib
 from importlib import resources
 
-from ..config.scenario import Scenario, scenario_from_dict
+from ..config.scenario import Scenario, ScenarioError, scenario_from_dict
+
+#: scenario keys set by command-line options of ``geocel demo`` and ``geocel benchmark``
+OPTION_KEYS = {"[loading].penetration": "--penetration", "[loading].velocity": "--velocity"}
 
 PRESETS = ("deeks-white",)
 RESOLUTIONS = {
@@ -63,3 +66,18 @@ def preset_dict(
 
 def preset_scenario(name: str, **kw) -> Scenario:
     return scenario_from_dict(preset_dict(name, **kw))
+
+
+def scenario_from_options(data: dict, label: str = "") -> Scenario:
+    """Validate a scenario made from command-line options: a problem with a key that an option set
+    (:data:`OPTION_KEYS`) is reported under the option's name, all problems in one ``ValueError`` line."""
+    try:
+        return scenario_from_dict(data)
+    except ScenarioError as err:
+        problems = []
+        for p in err.problems:
+            for key, option in OPTION_KEYS.items():
+                if p.startswith(key):
+                    p = option + p[len(key) :]
+            problems.append(p)
+        raise ValueError(label + "; ".join(problems)) from None
