@@ -101,8 +101,9 @@ def plot_curves(
     ax[0].invert_yaxis()
     for a in ax:
         a.grid(alpha=0.3)
-    ax[0].legend(fontsize=8)
-    ax[2].legend(fontsize=8)
+    for a in (ax[0], ax[2]):
+        if a.get_legend_handles_labels()[0]:
+            a.legend(fontsize=8)
     if title:
         fig.suptitle(title)
     fig.tight_layout()
