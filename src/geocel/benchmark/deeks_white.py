@@ -338,8 +338,8 @@ def run_benchmark(
             if s["status"] != "finished":
                 failed[name] = f"status {s['status']}: {s.get('diagnostic')}"
         except Exception as err:  # noqa: BLE001 - a failed variant must not stop the others
-            failed[name] = repr(err)
-            echo(f"  {name}: FAILED {err!r}")
+            failed[name] = f"{type(err).__name__}: {' '.join(str(err).split())}"
+            echo(f"  {name}: FAILED {failed[name]}")
     client.close()
     if not scheduler:
         cluster.close()
