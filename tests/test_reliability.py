@@ -441,12 +441,35 @@ def test_user_errors_are_one_line_and_exit_2_before_any_computing(tmp_path, monk
 VARIANT = ("rigid", 100.0, "demo", 0.06, 0.5)
 
 
+def _tiny_variant_dict(kind, S, resolution, penetration, velocity, velocity_factor=1.0) -> dict:
+    """The benchmark's variant scenario on the tiny test domain (half the preset's cell size at the pile):
+    the reuse logic is the same, the run takes seconds instead of a minute."""
+    from geocel.benchmark.deeks_white import variant_name
+    from geocel.benchmark.presets import RESOLUTIONS
+
+    d = _pile(**{"loading.penetration": penetration, "loading.velocity": velocity,
+                 "domain.fine_size": RESOLUTIONS[resolution]["fine_size"] / 2})  # fmt: skip
+    d["name"] = variant_name(kind, S, velocity_factor)
+    d["pile"]["type"] = kind
+    d["scaling"] = {"mass_gravity": float(S), "velocity_factor": float(velocity_factor)}
+    return d
+
+
+@pytest.fixture
+def tiny_variants(monkeypatch):
+    import geocel.benchmark.deeks_white as dw
+
+    monkeypatch.setattr(dw, "variant_dict", _tiny_variant_dict)
+
+
 @pytest.fixture(scope="module")
 def finished_variant(tmp_path_factory) -> tuple[Path, dict]:
-    from geocel.benchmark.deeks_white import run_variant
+    import geocel.benchmark.deeks_white as dw
 
     out = tmp_path_factory.mktemp("bench")
-    s = run_variant(VARIANT[0], VARIANT[1], str(out), *VARIANT[2:])
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(dw, "variant_dict", _tiny_variant_dict)
+        s = dw.run_variant(VARIANT[0], VARIANT[1], str(out), *VARIANT[2:])
     assert s["status"] == "finished" and not s["skipped"]
     return out, s
 
@@ -462,11 +485,11 @@ def _bench_copy(finished_variant, tmp_path) -> Path:
     [
         ("velocity", 0.25, "[loading].velocity 0.5 → 0.25"),
         ("penetration", 0.08, "[loading].penetration 0.06 → 0.08"),
-        ("resolution", "coarse", "[domain].fine_size 0.2 → 0.15"),
+        ("resolution", "coarse", "[domain].fine_size 0.1 → 0.075"),
     ],
 )
 def test_a_finished_variant_is_reused_only_for_the_same_scenario(
-    finished_variant, tmp_path, option, value, named
+    finished_variant, tiny_variants, tmp_path, option, value, named
 ):
     from geocel.benchmark.deeks_white import plan_benchmark
 
@@ -481,7 +504,9 @@ def test_a_finished_variant_is_reused_only_for_the_same_scenario(
 
 
 @pytest.mark.parametrize("broken", ["summary.json", "summary.json and history.csv"])
-def test_a_variant_with_a_broken_summary_is_resumed_from_its_checkpoint(finished_variant, tmp_path, broken):
+def test_a_variant_with_a_broken_summary_is_resumed_from_its_checkpoint(
+    finished_variant, tiny_variants, tmp_path, broken
+):
     from geocel.benchmark.deeks_white import plan_benchmark, run_variant, write_results
 
     out = _bench_copy(finished_variant, tmp_path)
