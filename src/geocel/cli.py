@@ -29,9 +29,21 @@ def _floats(text: str | None, n: int, name: str) -> np.ndarray | None:
         vals = np.array([float(v) for v in text.split(",")])
     except ValueError as err:
         raise typer.BadParameter(f"{name} must be {n} comma-separated numbers, got {text!r}") from err
+    if not np.all(np.isfinite(vals)):
+        raise typer.BadParameter(f"{name} = {text!r}: not a finite number")
     if vals.size != n:
         raise typer.BadParameter(f"{name} must have {n} comma-separated numbers, got {vals.size}")
     return vals
+
+
+def _check_out_dir(out: Path) -> None:
+    """``out`` must be a directory or creatable as one (no existing file on its path)."""
+    for p in (out, *out.parents):
+        if p.exists():
+            if not p.is_dir():
+                what = "--out" if p == out else f"--out {str(out)!r}: its parent"
+                raise ValueError(f"{what} {str(p)!r} is an existing file, not a directory")
+            return
 
 
 def _key_table(title: str, figures: dict[str, float]) -> Table:
@@ -86,26 +98,52 @@ def element_test_cmd(
     ] = None,
     tol: Annotated[float, typer.Option(help="local relative error tolerance of the substepping")] = 1.0e-6,
     out: Annotated[Path, typer.Option(help="output directory")] = Path("element-test"),
+    allow_void_ratio_outside_limits: Annotated[
+        bool, typer.Option(help="run even if e0 lies outside [e_d, e_i] at the initial mean stress")
+    ] = False,
 ) -> None:
-    """Run an element test; writes OUT/element_test.csv, key_figures.json and element_test.png."""
+    """Run an element test; writes OUT/element_test.csv, key_figures.json and element_test.png.
+
+    Every option is checked before anything runs or is drawn; a bad one stops with exit code 2."""
     import pandas as pd
 
     from .config.materials import load_material
-    from .element_test.driver import element_test
+    from .element_test.driver import check_options, element_test, path_increments
 
     try:
+        _check_out_dir(out)
         mat = load_material(material)
         stress0 = _floats(stress, 6, "--stress")
         state0 = None
         delta0 = _floats(delta, 6, "--delta")
         if delta0 is not None:
             state0 = np.concatenate([[e0], delta0])
+        check_options(
+            kind,
+            mat,
+            e0=e0,
+            p0=p0,
+            k0=k0,
+            strain=strain,
+            steps=steps,
+            cycles=cycles,
+            amplitude=amplitude,
+            control=control,
+            intergranular=intergranular,
+            stress0=stress0,
+            state0=state0,
+            tol=tol,
+            allow_void_ratio_outside_limits=allow_void_ratio_outside_limits,
+        )
         table = None
         n_total = steps
         if kind == "path":
             if path is None:
                 raise ValueError("kind 'path' needs --path CSV")
+            if not path.is_file():
+                raise ValueError(f"--path {str(path)!r}: file not found")
             table = pd.read_csv(path)
+            path_increments(table)
             n_total = len(table)
         elif kind == "oedometer":
             n_total = 2 * steps
@@ -138,6 +176,7 @@ def element_test_cmd(
                 state0=state0,
                 tol=tol,
                 progress=lambda i: bar.update(task, completed=i),
+                allow_void_ratio_outside_limits=allow_void_ratio_outside_limits,
             )
     except (ValueError, OSError) as err:
         console.print(f"[red]error:[/red] {escape(str(err))}")

@@ -20,7 +20,8 @@ from ..materials.kernels import ELASTIC, HYPOPLASTIC, MOHR_COULOMB
 
 
 class _Material(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    # allow_inf_nan=False: NaN and ±inf are rejected in every parameter ("not a finite number")
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
     grain_density: float = Field(2650.0, gt=0.0, le=10000.0, description="grain density ρ_s, kg/m³")
 

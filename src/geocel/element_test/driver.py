@@ -348,6 +348,98 @@ def initial_stress(p0: float, k0: float = 1.0) -> np.ndarray:
     return np.array([-k0 * sv, -k0 * sv, -sv, 0.0, 0.0, 0.0])
 
 
+def _finite(name: str, value: float | None, *, positive: bool = False) -> None:
+    if value is None:
+        return
+    if not math.isfinite(value):
+        raise ValueError(f"{name} = {value}: not a finite number")
+    if positive and value <= 0.0:
+        raise ValueError(f"{name} = {value:g} must be positive")
+
+
+def path_increments(path: pd.DataFrame | None) -> np.ndarray:
+    """The strain increments (n × 6) of a ``path`` table; ``ValueError`` if columns or numbers are bad."""
+    if path is None:
+        raise ValueError("kind 'path' needs a CSV of strain increments (columns dexx … deyz)")
+    missing = [c for c in DELTA_COLUMNS if c not in path.columns]
+    if missing:
+        raise ValueError(f"path CSV lacks the columns {missing}; needs {DELTA_COLUMNS}")
+    try:
+        incs = path[DELTA_COLUMNS].to_numpy(dtype=float)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"path CSV: the columns {DELTA_COLUMNS} must hold numbers ({err})") from None
+    if len(incs) == 0:
+        raise ValueError("path CSV has no rows")
+    if not np.all(np.isfinite(incs)):
+        raise ValueError("path CSV: an increment is not a finite number")
+    return incs
+
+
+def check_options(
+    kind: str,
+    material: MaterialT,
+    *,
+    e0: float = 0.65,
+    p0: float = 100.0e3,
+    k0: float = 1.0,
+    strain: float | None = None,
+    steps: int = 1000,
+    cycles: int = 3,
+    amplitude: float | None = None,
+    control: str = "strain",
+    intergranular: str = "zero",
+    stress0: np.ndarray | None = None,
+    state0: np.ndarray | None = None,
+    tol: float = 1.0e-6,
+    allow_void_ratio_outside_limits: bool = False,
+) -> None:
+    """Check the options of :func:`element_test` before anything runs; ``ValueError`` naming the option.
+
+    Numbers must be finite; e0, p0, k0, steps, cycles and tol positive. For a hypoplastic material e0
+    must lie inside [e_d, e_i] of Bauer's law at the initial mean stress: p0, or p = −tr σ/3 of
+    ``stress0`` where one is given (``path``); ``allow_void_ratio_outside_limits`` skips this check."""
+    if kind not in KINDS:
+        raise ValueError(f"kind = {kind!r}: choose one of {', '.join(KINDS)}")
+    if steps < 1:
+        raise ValueError(f"steps = {steps} must be ≥ 1")
+    if cycles < 1:
+        raise ValueError(f"cycles = {cycles} must be ≥ 1")
+    if control not in ("strain", "stress"):
+        raise ValueError(f"control = {control!r}: expected 'strain' or 'stress'")
+    if intergranular not in ("zero", "vertical"):
+        raise ValueError(f"intergranular = {intergranular!r}: expected 'zero' or 'vertical'")
+    _finite("e0", e0, positive=True)
+    _finite("k0", k0, positive=True)
+    _finite("strain", strain, positive=True)
+    _finite("amplitude", amplitude, positive=True)
+    _finite("tol", tol, positive=True)
+    if tol >= 1.0:
+        raise ValueError(f"tol = {tol:g} must be below 1 (a relative error)")
+    if stress0 is None:
+        _finite("p0", p0, positive=True)
+        p, where = p0, f"p0 = {p0:g} Pa"
+    else:
+        sig = np.asarray(stress0, dtype=float)
+        if sig.shape != (6,) or not np.all(np.isfinite(sig)):
+            raise ValueError(f"stress = {sig.tolist()}: needs 6 finite numbers (Pa)")
+        p = float(-sig[:3].sum() / 3.0)
+        where = f"the given stress (p = −tr σ/3 = {p:g} Pa)"
+        if isinstance(material, Hypoplastic) and p <= 0.0:
+            raise ValueError(
+                f"stress = {sig.tolist()}: mean stress p = {p:g} Pa is not compressive; hypoplasticity needs "
+                "compression (negative normal stresses, tension positive)"
+            )
+    if state0 is not None and not np.all(np.isfinite(np.asarray(state0, dtype=float))):
+        raise ValueError("delta: not a finite number")
+    if isinstance(material, Hypoplastic) and not allow_void_ratio_outside_limits:
+        ed, _, ei = material.limit_void_ratios(p)
+        if not (ed <= e0 <= ei):
+            raise ValueError(
+                f"e0 = {e0:g} is outside [e_d, e_i] = [{ed:.4f}, {ei:.4f}] at {where} (Bauer's law "
+                "e_x = e_x0 exp(-(3p/h_s)^n)); allow it deliberately with --allow-void-ratio-outside-limits"
+            )
+
+
 def element_test(
     kind: str,
     material: MaterialT,
@@ -367,23 +459,33 @@ def element_test(
     state0: np.ndarray | None = None,
     tol: float = 1.0e-6,
     progress: Callable[[int], None] | None = None,
+    allow_void_ratio_outside_limits: bool = False,
 ) -> ElementTestResult:
     """Run one of :data:`KINDS` (see the CLI help for the meaning of each option).
+
+    The options are checked first by :func:`check_options` (``ValueError`` naming the option).
 
     ``strain``: final axial strain (triaxial kinds, oedometer), volumetric strain (isotropic) or
     engineering shear strain γ (simple shear), as a positive number. ``amplitude``: cyclic strain
     amplitude (−) or deviator amplitude (Pa) with ``control = "stress"``.
     """
-    if kind not in KINDS:
-        raise ValueError(f"kind = {kind!r}: choose one of {', '.join(KINDS)}")
-    if steps < 1:
-        raise ValueError(f"steps = {steps} must be ≥ 1")
-    if e0 <= 0:
-        raise ValueError(f"e0 = {e0} must be positive")
-    if isinstance(material, Hypoplastic):
-        ed, _, ei = material.limit_void_ratios(p0)
-        if not (ed <= e0 <= ei):
-            raise ValueError(f"e0 = {e0} is outside [e_d, e_i] = [{ed:.4f}, {ei:.4f}] at p0 = {p0:g} Pa")
+    check_options(
+        kind,
+        material,
+        e0=e0,
+        p0=p0,
+        k0=k0,
+        strain=strain,
+        steps=steps,
+        cycles=cycles,
+        amplitude=amplitude,
+        control=control,
+        intergranular=intergranular,
+        stress0=stress0,
+        state0=state0,
+        tol=tol,
+        allow_void_ratio_outside_limits=allow_void_ratio_outside_limits,
+    )
     sig0 = initial_stress(p0, k0) if stress0 is None else np.asarray(stress0, dtype=float)
     st0 = material.initial_state(e0, intergranular) if state0 is None else np.asarray(state0, dtype=float)
     sgn = 1.0 if extension else -1.0
@@ -414,12 +516,7 @@ def element_test(
     elif kind == "cyclic-triaxial":
         segments.extend(_cyclic_segments(sig0, steps, cycles, amplitude, control, drained))
     elif kind == "path":
-        if path is None:
-            raise ValueError("kind 'path' needs a CSV of strain increments (columns dexx … deyz)")
-        missing = [c for c in DELTA_COLUMNS if c not in path.columns]
-        if missing:
-            raise ValueError(f"path CSV lacks the columns {missing}; needs {DELTA_COLUMNS}")
-        incs = path[DELTA_COLUMNS].to_numpy(dtype=float)
+        incs = path_increments(path)
         segments = (Segment(strain_step(row), 1, label=f"row {i + 1}") for i, row in enumerate(incs))  # type: ignore[assignment]
     return run_segments(material, sig0, st0, segments, kind=kind, tol=tol, progress=progress)
 
