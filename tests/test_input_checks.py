@@ -144,3 +144,11 @@ def test_element_test_path_checks_e0_at_the_given_stress(tmp_path):
     res = runner.invoke(app, [*base, "--e0", "0.8", "--stress=-2e6,-2e6,-2e6,0,0,0"])
     assert res.exit_code == 2
     assert "p = −tr σ/3 = 2e+06 Pa" in " ".join(res.output.split())
+
+
+def test_element_test_material_file_with_a_nan_parameter(tmp_path):
+    f = tmp_path / "sand.toml"
+    f.write_text('[soil]\npreset = "fraction-e"\nhs = nan\n')
+    res = runner.invoke(app, ["element-test", "triaxial", "--material", str(f), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2 and isinstance(res.exception, SystemExit)
+    assert "[soil].hs = nan: not a finite number" in " ".join(res.output.split())
