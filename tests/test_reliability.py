@@ -411,7 +411,7 @@ def test_the_energy_panel_shows_every_checked_value_and_marks_the_start(tmp_path
         (["run", "{bad}"], "invalid TOML"),
         (["run", "{bad}", "--duration", "0"], "--duration = 0: must be a positive number"),
         (["demo", "--velocity", "0"], "--velocity = 0: must be a positive number"),
-        (["demo", "--penetration", "40"], "--penetration = 40.0: the tip would reach 40.0 m, beyond soil_depth"),
+        (["demo", "--penetration", "40"], "--penetration = 40.0: initial_embedment + penetration = 40 m: the tip would reach or pass the base"),
     ],
 )  # fmt: skip
 def test_user_errors_are_one_line_and_exit_2_before_any_computing(tmp_path, monkeypatch, args, needle):

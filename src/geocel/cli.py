@@ -68,7 +68,11 @@ def user_errors(*kinds: type[BaseException]) -> Iterator[None]:
 
 
 def _positive(option: str, value: float | None) -> None:
-    if value is not None and not (math.isfinite(value) and value > 0.0):
+    if value is None:
+        return
+    if not math.isfinite(value):
+        raise ValueError(f"{option} = {value}: not a finite number")
+    if value <= 0.0:
         raise ValueError(f"{option} = {value:g}: must be a positive number")
 
 
@@ -82,8 +86,18 @@ def _floats(text: str | None, n: int, name: str) -> np.ndarray | None:
     if vals.size != n:
         raise ValueError(f"{name} = {text!r}: must be {n} comma-separated numbers, got {vals.size}")
     if not np.isfinite(vals).all():
-        raise ValueError(f"{name} = {text!r}: must be finite numbers")
+        raise ValueError(f"{name} = {text!r}: not a finite number")
     return vals
+
+
+def _check_out_dir(out: Path) -> None:
+    """``out`` must be a directory or creatable as one (no existing file on its path)."""
+    for p in (out, *out.parents):
+        if p.exists():
+            if not p.is_dir():
+                whose = "" if p == out else f"its parent {str(p)!r} "
+                raise ValueError(f"--out = {str(out)!r}: {whose}is an existing file, not a directory")
+            return
 
 
 def _key_table(title: str, figures: dict[str, float]) -> Table:
@@ -138,28 +152,44 @@ def element_test_cmd(
     ] = None,
     tol: Annotated[float, typer.Option(help="local relative error tolerance of the substepping")] = 1.0e-6,
     out: Annotated[Path, typer.Option(help="output directory")] = Path("element-test"),
+    allow_void_ratio_outside_limits: Annotated[
+        bool, typer.Option(help="run even if e0 lies outside [e_d, e_i] at the initial mean stress")
+    ] = False,
 ) -> None:
-    """Run an element test; writes OUT/element_test.csv, key_figures.json and element_test.png."""
+    """Run an element test; writes OUT/element_test.csv, key_figures.json and element_test.png.
+
+    Every option is checked before anything runs or is drawn; a bad one stops with exit code 2."""
     import pandas as pd
 
     from .config.materials import load_material
-    from .element_test.driver import element_test
+    from .element_test.driver import check_options, element_test, path_increments
 
     with user_errors():
-        for option, value in (("--p0", p0), ("--steps", steps), ("--cycles", cycles), ("--tol", tol)):
-            _positive(option, value)
-        if not (math.isfinite(e0) and e0 > 0.0):
-            raise ValueError(f"--e0 = {e0:g}: must be a positive void ratio")
-        if not (math.isfinite(k0) and k0 > 0.0):
-            raise ValueError(f"--k0 = {k0:g}: must be a positive ratio σ_h/σ_v")
-        if strain is not None and not math.isfinite(strain):
-            raise ValueError(f"--strain = {strain:g}: must be a finite number")
+        _check_out_dir(out)
         mat = load_material(material)
         stress0 = _floats(stress, 6, "--stress")
         state0 = None
         delta0 = _floats(delta, 6, "--delta")
         if delta0 is not None:
             state0 = np.concatenate([[e0], delta0])
+        check_options(
+            kind,
+            mat,
+            e0=e0,
+            p0=p0,
+            k0=k0,
+            strain=strain,
+            steps=steps,
+            cycles=cycles,
+            amplitude=amplitude,
+            control=control,
+            intergranular=intergranular,
+            stress0=stress0,
+            state0=state0,
+            tol=tol,
+            allow_void_ratio_outside_limits=allow_void_ratio_outside_limits,
+            option_prefix="--",
+        )
         table = None
         n_total = steps
         if kind == "path":
@@ -167,10 +197,14 @@ def element_test_cmd(
                 raise ValueError(
                     "element-test path: needs --path CSV (columns dexx,deyy,dezz,dexy,dexz,deyz)"
                 )
+            where = f"--path = {str(path)!r}"
+            if not path.is_file():
+                raise ValueError(f"{where}: file not found")
             try:
                 table = pd.read_csv(path)
             except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
-                raise ValueError(f"--path = {str(path)!r}: not a readable CSV ({one_line(err)})") from None
+                raise ValueError(f"{where}: not a readable CSV ({one_line(err)})") from None
+            path_increments(table, where)
             n_total = len(table)
         elif kind == "oedometer":
             n_total = 2 * steps
@@ -203,6 +237,7 @@ def element_test_cmd(
                 state0=state0,
                 tol=tol,
                 progress=lambda i: bar.update(task, completed=i),
+                allow_void_ratio_outside_limits=allow_void_ratio_outside_limits,
             )
         paths = res.write(out)
     console.print(_key_table(f"{kind} — {mat.model}", res.key_figures()))

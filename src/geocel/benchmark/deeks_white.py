@@ -216,7 +216,9 @@ def plan_benchmark(
     if resolution not in RESOLUTIONS:
         raise ValueError(f"--resolution = {resolution!r}: unknown (allowed: {', '.join(RESOLUTIONS)})")
     for option, value in (("--penetration", penetration), ("--velocity", velocity)):
-        if not (math.isfinite(value) and value > 0.0):
+        if not math.isfinite(value):
+            raise ValueError(f"{option} = {value}: not a finite number")
+        if value <= 0.0:
             raise ValueError(f"{option} = {value:g}: must be a positive number")
     todo = [
         (KIND_NAMES.get(k, k), float(S), 1.0)
