@@ -18,11 +18,11 @@ from pathlib import Path
 
 import numba
 import numpy as np
-import pandas as pd
 
 from geocel.benchmark.plots import cell_average
 from geocel.benchmark.presets import preset_dict
 from geocel.config.scenario import scenario_from_dict
+from geocel.io.history import read_history
 from geocel.solver.simulation import Simulation
 
 
@@ -48,7 +48,7 @@ def run(
     sim = Simulation(scenario_from_dict(d), out=root / d["name"], progress=False, write_fields=False)
     t = time.perf_counter()
     s = sim.run()
-    h = cell_average(pd.read_csv(root / d["name"] / "history.csv"), 0.2)
+    h = cell_average(read_history(root / d["name"] / "history.csv"), 0.2)
     c = sim.contact
     info = {
         "status": s["status"] if sim.diagnostic is None else f"{s['status']}: {sim.diagnostic['message']}",

@@ -264,7 +264,7 @@ def test_pile_scenarios_run_and_write_q_b_q_s_and_the_governing_element(tmp_path
         assert s["pile_steps"] >= s["steps"] * 2
     elif kind == "coupled":
         assert s["pile_steps"] == s["steps"]
-    h = pd.read_csv(tmp_path / kind / "history.csv")
+    h = pd.read_csv(tmp_path / kind / "history.csv", comment="#")
     assert {"qb", "qs", "tip_depth", "head_force"} <= set(h.columns)
     assert (h["qb"].iloc[1:] > 0).all()
     assert abs(s["soil_mass_error"]) < 1e-10
@@ -299,8 +299,8 @@ def test_pile_run_restarts_from_its_checkpoint(tmp_path, courant):
     assert (np.abs(sim.field.u_remap).max() > 0.0) == (courant > 0.0)
     second = Simulation(sc, progress=False, write_fields=False).run(restart=True)
     assert second["steps"] == full["steps"]
-    ha = pd.read_csv(tmp_path / "a" / "coupled" / "history.csv")
-    hb = pd.read_csv(tmp_path / "b" / "coupled" / "history.csv")
+    ha = pd.read_csv(tmp_path / "a" / "coupled" / "history.csv", comment="#")
+    hb = pd.read_csv(tmp_path / "b" / "coupled" / "history.csv", comment="#")
     np.testing.assert_allclose(hb["qb"].to_numpy(), ha["qb"].to_numpy(), rtol=1e-9)
     np.testing.assert_allclose(hb["head_force"].to_numpy(), ha["head_force"].to_numpy(), rtol=1e-9)
 
@@ -320,7 +320,7 @@ def test_deferred_remap_matches_the_remap_after_every_step(tmp_path):
         sim = Simulation(sc, progress=False, write_fields=False)
         s = sim.run()
         assert s["status"] == "finished" and abs(s["soil_mass_error"]) < 1e-12
-        h = pd.read_csv(tmp_path / str(courant) / "coupled" / "history.csv")
+        h = pd.read_csv(tmp_path / str(courant) / "coupled" / "history.csv", comment="#")
         out[courant] = (s, sim.field.remap_count, h, sim.field.mass.copy())
     (s0, n0, h0, m0), (s1, n1, h1, m1) = out[0.0], out[0.05]
     assert n0 == s0["steps"] and n1 * 5 < s1["steps"] and s1["remaps"] == n1
@@ -347,7 +347,7 @@ def test_subcycled_solid_pile_matches_the_single_time_step_run(tmp_path):
         sc.solver.pile_subcycling = sub
         s = Simulation(sc, progress=False, write_fields=False).run()
         assert s["status"] == "finished"
-        runs[sub] = (s, pd.read_csv(tmp_path / str(sub) / "solid" / "history.csv"))
+        runs[sub] = (s, pd.read_csv(tmp_path / str(sub) / "solid" / "history.csv", comment="#"))
     (s0, h0), (s1, h1) = runs[False], runs[True]
     assert s0["dt_governing_body"] == "pile (solid)" and s0["pile_steps"] == s0["steps"]
     assert s1["steps"] * 3 < s0["steps"]  # far fewer soil steps ...

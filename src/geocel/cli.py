@@ -1,8 +1,17 @@
-"""The ``geocel`` command-line tool."""
+"""The ``geocel`` command-line tool.
+
+Every error a user can cause (a bad option, a scenario file that does not validate, a restart that does not
+fit its run directory, an unwritable directory) ends in one line, ``error: <file, key or option> = <value>:
+<what is allowed>``, and exit code 2 (:func:`user_errors`), checked before any computing. A run that
+finishes but fails the quasi-static check exits 1 (``--allow-invalid``: a warning), an interrupted one 130.
+"""
 
 from __future__ import annotations
 
+import math
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated
 
@@ -21,17 +30,74 @@ app = typer.Typer(
 )
 console = Console()
 
+#: exit codes: a user error (bad input, refused restart) and an interrupted run (as a shell after SIGINT)
+EXIT_USER_ERROR, EXIT_INTERRUPTED = 2, 130
+
+
+def one_line(err: BaseException) -> str:
+    """The message of a user error as one line: a scenario's problems joined with "; ", an OS error as
+    ``file: reason``."""
+    from .config.scenario import ScenarioError
+
+    if isinstance(err, ScenarioError):
+        return (f"{err.source}: " if err.source else "invalid scenario: ") + "; ".join(err.problems)
+    if isinstance(err, OSError) and err.filename is not None:
+        return f"{err.filename}: {err.strerror or err}"
+    text = str(err).strip() or type(err).__name__
+    return "; ".join(part.strip() for part in text.splitlines() if part.strip())
+
+
+def fail(message: str) -> None:
+    """Print ``error: message`` as one line (no wrapping) and exit with code 2."""
+    console.print(f"[red]error:[/red] {escape(message)}", soft_wrap=True)
+    raise typer.Exit(EXIT_USER_ERROR)
+
+
+@contextmanager
+def user_errors(*kinds: type[BaseException]) -> Iterator[None]:
+    """Turn the errors a user can cause into one line and exit code 2: by default ``ValueError`` (bad values,
+    scenario and checkpoint errors), ``OSError`` (files) and ``NotImplementedError`` (a combination not
+    supported); ``kinds`` narrows this for stages where a ``ValueError`` would be a bug, not bad input."""
+    caught: tuple[type[BaseException], ...] = kinds or (ValueError, OSError, NotImplementedError)
+    try:
+        yield
+    except typer.Exit:
+        raise
+    except caught as err:
+        fail(one_line(err))
+
+
+def _positive(option: str, value: float | None) -> None:
+    if value is None:
+        return
+    if not math.isfinite(value):
+        raise ValueError(f"{option} = {value}: not a finite number")
+    if value <= 0.0:
+        raise ValueError(f"{option} = {value:g}: must be a positive number")
+
 
 def _floats(text: str | None, n: int, name: str) -> np.ndarray | None:
     if text is None:
         return None
     try:
         vals = np.array([float(v) for v in text.split(",")])
-    except ValueError as err:
-        raise typer.BadParameter(f"{name} must be {n} comma-separated numbers, got {text!r}") from err
+    except ValueError:
+        raise ValueError(f"{name} = {text!r}: must be {n} comma-separated numbers") from None
     if vals.size != n:
-        raise typer.BadParameter(f"{name} must have {n} comma-separated numbers, got {vals.size}")
+        raise ValueError(f"{name} = {text!r}: must be {n} comma-separated numbers, got {vals.size}")
+    if not np.isfinite(vals).all():
+        raise ValueError(f"{name} = {text!r}: not a finite number")
     return vals
+
+
+def _check_out_dir(out: Path) -> None:
+    """``out`` must be a directory or creatable as one (no existing file on its path)."""
+    for p in (out, *out.parents):
+        if p.exists():
+            if not p.is_dir():
+                whose = "" if p == out else f"its parent {str(p)!r} "
+                raise ValueError(f"--out = {str(out)!r}: {whose}is an existing file, not a directory")
+            return
 
 
 def _key_table(title: str, figures: dict[str, float]) -> Table:
@@ -86,26 +152,59 @@ def element_test_cmd(
     ] = None,
     tol: Annotated[float, typer.Option(help="local relative error tolerance of the substepping")] = 1.0e-6,
     out: Annotated[Path, typer.Option(help="output directory")] = Path("element-test"),
+    allow_void_ratio_outside_limits: Annotated[
+        bool, typer.Option(help="run even if e0 lies outside [e_d, e_i] at the initial mean stress")
+    ] = False,
 ) -> None:
-    """Run an element test; writes OUT/element_test.csv, key_figures.json and element_test.png."""
+    """Run an element test; writes OUT/element_test.csv, key_figures.json and element_test.png.
+
+    Every option is checked before anything runs or is drawn; a bad one stops with exit code 2."""
     import pandas as pd
 
     from .config.materials import load_material
-    from .element_test.driver import element_test
+    from .element_test.driver import check_options, element_test, path_increments
 
-    try:
+    with user_errors():
+        _check_out_dir(out)
         mat = load_material(material)
         stress0 = _floats(stress, 6, "--stress")
         state0 = None
         delta0 = _floats(delta, 6, "--delta")
         if delta0 is not None:
             state0 = np.concatenate([[e0], delta0])
+        check_options(
+            kind,
+            mat,
+            e0=e0,
+            p0=p0,
+            k0=k0,
+            strain=strain,
+            steps=steps,
+            cycles=cycles,
+            amplitude=amplitude,
+            control=control,
+            intergranular=intergranular,
+            stress0=stress0,
+            state0=state0,
+            tol=tol,
+            allow_void_ratio_outside_limits=allow_void_ratio_outside_limits,
+            option_prefix="--",
+        )
         table = None
         n_total = steps
         if kind == "path":
             if path is None:
-                raise ValueError("kind 'path' needs --path CSV")
-            table = pd.read_csv(path)
+                raise ValueError(
+                    "element-test path: needs --path CSV (columns dexx,deyy,dezz,dexy,dexz,deyz)"
+                )
+            where = f"--path = {str(path)!r}"
+            if not path.is_file():
+                raise ValueError(f"{where}: file not found")
+            try:
+                table = pd.read_csv(path)
+            except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
+                raise ValueError(f"{where}: not a readable CSV ({one_line(err)})") from None
+            path_increments(table, where)
             n_total = len(table)
         elif kind == "oedometer":
             n_total = 2 * steps
@@ -138,11 +237,9 @@ def element_test_cmd(
                 state0=state0,
                 tol=tol,
                 progress=lambda i: bar.update(task, completed=i),
+                allow_void_ratio_outside_limits=allow_void_ratio_outside_limits,
             )
-    except (ValueError, OSError) as err:
-        console.print(f"[red]error:[/red] {escape(str(err))}")
-        raise typer.Exit(2) from err
-    paths = res.write(out)
+        paths = res.write(out)
     console.print(_key_table(f"{kind} — {mat.model}", res.key_figures()))
     fired = {k: v for k, v in res.flag_counts.items() if v}
     if fired:
@@ -162,36 +259,25 @@ def demo(
     """Embedded default job: the Deeks & White pile, beam–volume coupled, MGS S = 10, demo resolution (0.2 m
     cells at the pile), jacked 3 m. The jacking is faster than the centrifuge's 2 cm/s (0.5 m/s by default);
     the run's own kinetic/internal energy check says whether that is still quasi-static."""
-    from .benchmark.plots import plot_run, verdict
-    from .benchmark.presets import preset_scenario
+    from .benchmark.plots import cell_average, plot_run, value_at_depth
+    from .benchmark.presets import RESOLUTIONS, preset_dict, scenario_from_options
+    from .io.history import read_history
     from .solver.simulation import Simulation
 
-    sc = preset_scenario(
-        "deeks-white",
-        resolution="demo",
-        penetration=penetration,
-        velocity=velocity,
-        pile="coupled",
-        scaling=10,
-    )
-    sim = Simulation(sc, out=out)
+    with user_errors():
+        _positive("--penetration", penetration)
+        _positive("--velocity", velocity)
+        sc = scenario_from_options(
+            preset_dict("deeks-white", resolution="demo", penetration=penetration, velocity=velocity,
+                        pile="coupled", scaling=10)
+        )  # fmt: skip
+        sim = Simulation(sc, out=out)
     console.print(f"[bold]geocel demo[/bold]: {sc.name}, coupled pile, S = 10, v = {velocity:g} m/s → {out}")
-    summary = sim.run()
-    _print_summary(summary)
-    from .benchmark.plots import cell_average, value_at_depth
-    from .benchmark.presets import RESOLUTIONS
-
+    summary = _run_simulation(sim, None, restart=False, allow_changes=False)
     width = RESOLUTIONS["demo"]["fine_size"]  # q averaged over one cell of depth (tip crossing cell faces)
     fig = plot_run(out, "coupled pile, S = 10 (demo resolution)", width)
-    ratio = summary["max_energy_ratio"]
-    v = verdict(ratio)
-    console.print(
-        f"quasi-static check: max kinetic/internal energy = {ratio:.2%} → [bold]{v}[/bold] "
-        f"(≤ 5 % valid, ≤ 10 % caution)"
-    )
-    import pandas as pd
-
-    h = cell_average(pd.read_csv(out / "history.csv"), width)
+    _print_verdict(summary)
+    h = cell_average(read_history(out / "history.csv"), width)
     for z in (1.0, 2.0, 3.0):
         qb = value_at_depth(h, "qb", z)
         if np.isfinite(qb):
@@ -209,16 +295,14 @@ def preset_cmd(
     """Print a scenario preset as TOML (``geocel preset deeks-white > my.toml``)."""
     from .benchmark.presets import preset_dict, preset_text
 
-    try:
+    with user_errors():
         if resolution is None:
-            sys.stdout.write(preset_text(name))
+            text = preset_text(name)
         else:
             import tomli_w
 
-            sys.stdout.write(tomli_w.dumps(preset_dict(name, resolution=resolution)))
-    except ValueError as err:
-        console.print(f"[red]error:[/red] {escape(str(err))}")
-        raise typer.Exit(2) from err
+            text = tomli_w.dumps(preset_dict(name, resolution=resolution))
+    sys.stdout.write(text)
 
 
 @app.command()
@@ -235,30 +319,41 @@ def benchmark(
         Path | None, typer.Option(help="measured curve CSV: depth_m, qb_MPa[, qs_kPa]")
     ] = None,
     variants: Annotated[
-        str | None, typer.Option(help="subset, e.g. 'coupled:10,rigid:100' (kinds rigid|solid|coupled)")
+        str | None,
+        typer.Option(
+            help="subset, e.g. 'coupled:10,rigid:100' (kinds solid|conventional, coupled, rigid; S ≥ 1)"
+        ),
     ] = None,
     time_scaling: Annotated[
         bool, typer.Option(help="also run coupled S = 100 next to coupled S = 1 jacked 10× faster")
     ] = False,
+    rerun: Annotated[
+        bool,
+        typer.Option(
+            help="a variant directory holding another scenario (other --velocity, --penetration, "
+            "--resolution) is moved to <variant>.replaced and run again, instead of stopping"
+        ),
+    ] = False,
 ) -> None:
     """The 9 variants (conventional/coupled/rigid × S = 1, 10, 100) on dask.distributed: figure, tables and
-    report in OUT; finished variants are not run again."""
-    from .benchmark.deeks_white import run_benchmark
+    report in OUT. Finished variants of the same scenario are reused, interrupted ones resumed from their
+    checkpoints; every option is checked before the cluster starts."""
+    from .benchmark.deeks_white import parse_variants, plan_benchmark, run_benchmark
 
-    if name != "deeks-white":
-        console.print(f"[red]error:[/red] unknown benchmark {name!r} (available: deeks-white)")
-        raise typer.Exit(2)
-    sel = None
-    if variants:
-        try:
-            sel = [(k.strip(), float(s)) for k, s in (v.split(":") for v in variants.split(","))]
-        except ValueError as err:
-            console.print(f"[red]error:[/red] --variants: expected kind:S pairs, got {variants!r}")
-            raise typer.Exit(2) from err
-    res = run_benchmark(
-        out, resolution, penetration, velocity, scheduler, sel, reference, time_scaling, echo=console.print
-    )
+    with user_errors():
+        if name != "deeks-white":
+            raise ValueError(f"unknown benchmark {name!r} (available: deeks-white)")
+        sel = parse_variants(variants) if variants is not None else None
+        plan = plan_benchmark(out, resolution, penetration, velocity, sel, reference, time_scaling, rerun)
+    for variant, state in plan.states.items():
+        if state in ("finished", "resume", "replace"):
+            what = {"finished": "reused (finished before)", "resume": "resumed from its checkpoint",
+                    "replace": "another scenario: set aside and run again"}[state]  # fmt: skip
+            console.print(f"  {variant}: {what}")
+    res = run_benchmark(out, scheduler=scheduler, echo=console.print, plan=plan)
     console.print(res["table"].to_markdown(index=False, floatfmt=".4g"))
+    for variant, why in res.get("unreadable", {}).items():
+        console.print(f"[yellow]unreadable:[/yellow] {variant}: {escape(why)}", soft_wrap=True)
     console.print(f"report: {out / 'report.md'}\nfigure: {out / 'curves.png'}\ntable: {out / 'results.csv'}")
     if res["failed"]:
         raise typer.Exit(1)
@@ -271,31 +366,145 @@ def run(
         Path | None, typer.Option(help="run directory (default: [output] directory or runs/NAME)")
     ] = None,
     restart: Annotated[bool, typer.Option(help="continue from the run directory's checkpoint")] = False,
+    allow_changes: Annotated[
+        bool,
+        typer.Option(
+            help="with --restart: accept changes of the keys that are safe to change ([output] schedules, "
+            "[loading] penetration/duration, [solver] max_steps/kinetic_energy_limit, [reference], name)"
+        ),
+    ] = False,
     duration: Annotated[
         float | None, typer.Option(help="simulated time, s (overrides [loading] duration)")
     ] = None,
     no_fields: Annotated[bool, typer.Option(help="skip the VTK field snapshots")] = False,
+    allow_invalid: Annotated[
+        bool,
+        typer.Option(help="only warn (exit 0) when the quasi-static check says invalid (max KE/IE > 10 %)"),
+    ] = False,
 ) -> None:
-    """Run a scenario; writes config.toml, history.csv, fields/*.vtr + fields.pvd, summary.json."""
+    """Run a scenario; writes config.toml, history.csv, fields/*.vtr + fields.pvd, summary.json and, for a
+    pile, pile_curves.png. Exit codes: 0 done, 1 unstable or (pile runs) quasi-static check invalid, 2 bad
+    input or refused restart, 130 interrupted (continue with --restart)."""
     from .config.scenario import load_scenario
     from .solver.simulation import Simulation
 
-    try:
+    with user_errors():
+        _positive("--duration", duration)
+        if allow_changes and not restart:
+            raise ValueError("--allow-changes: only with --restart")
         sc = load_scenario(scenario_file)
         sim = Simulation(sc, out=out, duration=duration, write_fields=not no_fields)
-    except (ValueError, OSError, NotImplementedError) as err:
-        console.print(f"[red]error:[/red] {escape(str(err))}")
-        raise typer.Exit(2) from err
     console.print(f"run directory: {sim.run_dir.root}")
-    summary = sim.run(restart=restart)
-    _print_summary(summary)
+    again = ["geocel", "run", str(scenario_file), "--restart"] + (["--out", str(out)] if out else [])
+    summary = _run_simulation(sim, again, restart=restart, allow_changes=allow_changes)
     console.print(
         f"soil mass error {summary['soil_mass_error']:.2e}, max KE/IE {summary['max_energy_ratio']:.3g}, "
         f"energy balance error {summary['energy_balance_error']:.3g} J of {summary['external_work']:.3g} J external work"
     )
     if summary["status"] == "unstable":
-        console.print(f"[red]unstable:[/red] {escape(str(summary['diagnostic']))}")
+        _print_stop(summary, sim)
         raise typer.Exit(1)
+    if "pile_type" in summary and summary["steps"] > 0:
+        from .benchmark.plots import plot_run
+
+        try:
+            fig = plot_run(sim.run_dir.root, f"{sc.name} ({summary['pile_type']} pile)", sc.domain.fine_size)
+            console.print(f"plots: {fig}")
+        except (OSError, ValueError) as err:
+            console.print(f"[yellow]no plot:[/yellow] {escape(one_line(err))}", soft_wrap=True)
+    valid = _print_verdict(summary)
+    if "pile_type" not in summary:  # a soil-only run may be dynamic on purpose (a collapse, a wave)
+        console.print("(soil-only run: the quasi-static check is information, not a pass/fail criterion)")
+        valid = True
+    if summary["status"] == "max_steps":
+        console.print(
+            escape(f"stopped at [solver] max_steps; continue with: {' '.join(again)} --allow-changes")
+        )
+    if not valid and not allow_invalid:
+        console.print(
+            "[red]the run is not quasi-static[/red]: "
+            + escape(
+                "its results are not a jacking resistance (slow the jacking, lower [scaling] mass_gravity, or "
+                "pass --allow-invalid to accept it)"
+            ),
+            soft_wrap=True,
+        )
+        raise typer.Exit(1)
+
+
+def _run_simulation(sim, again: list[str] | None, restart: bool, allow_changes: bool) -> dict:
+    """Run with the restart checks as user errors, the notes printed, an interruption reported with what
+    was kept and how to continue (exit 130)."""
+    from .config.fingerprint import ScenarioMismatchError
+    from .io.checkpoint import CheckpointError
+
+    try:
+        with user_errors(CheckpointError, ScenarioMismatchError, OSError):
+            summary = sim.run(restart=restart, allow_changes=allow_changes)
+    except KeyboardInterrupt:
+        _print_notes(sim)
+        if sim.field is None or sim.status != "interrupted":
+            console.print("[yellow]interrupted[/yellow] before the first step: nothing to keep")
+        else:
+            _print_interrupted(sim.summary(), sim, again)
+        raise typer.Exit(EXIT_INTERRUPTED) from None
+    _print_notes(sim)
+    _print_summary(summary)
+    if summary["status"] == "interrupted":
+        _print_interrupted(summary, sim, again)
+        raise typer.Exit(EXIT_INTERRUPTED)
+    return summary
+
+
+def _print_notes(sim) -> None:
+    for note in sim.notes:
+        console.print(f"[yellow]note:[/yellow] {escape(note)}", soft_wrap=True)
+
+
+def _where(summary: dict) -> str:
+    text = f"step {summary['steps']}, t = {summary['time']:.6g} s"
+    if "penetration" in summary:
+        text += f", penetration {summary['penetration']:.4f} m"
+    return text
+
+
+def _print_interrupted(summary: dict, sim, again: list[str] | None) -> None:
+    rd = sim.run_dir
+    how = f"continue with: {' '.join(again)}" if again else "this command cannot continue it (no --restart)"
+    console.print(
+        f"[yellow]interrupted[/yellow] at {_where(summary)}: kept {rd.checkpoint} and {rd.history_csv} up to "
+        f"that step; {how}",
+        soft_wrap=True,
+    )
+
+
+def _print_stop(summary: dict, sim) -> None:
+    d = summary.get("diagnostic") or {}
+    where = d.get("position_m")
+    cell = f" at x, y, z = ({', '.join(f'{c:.4g}' for c in where)}) m" if where else ""
+    console.print(f"[red]unstable:[/red] {escape(str(d.get('message', '')))}", soft_wrap=True)
+    kept = f"step {d.get('last_complete_step')}, t = {d.get('last_complete_time', float('nan')):.6g} s"
+    if d.get("last_complete_penetration") is not None:
+        kept += f", penetration {d['last_complete_penetration']:.4f} m"
+    console.print(
+        f"limit crossed: {d.get('quantity', '?')}{cell}; last complete state kept ({kept}) in "
+        f"{sim.run_dir.checkpoint}",
+        soft_wrap=True,
+    )
+
+
+def _print_verdict(summary: dict) -> bool:
+    """Print the quasi-static check; returns False when it says invalid."""
+    from .solver.quasi_static import verdict
+
+    ratio = summary["max_energy_ratio"]
+    v = verdict(ratio)
+    shown = f"{ratio:.2%}" if ratio is not None and ratio == ratio else "n/a"
+    console.print(
+        f"quasi-static check: max kinetic/internal energy = {shown} → [bold]{v}[/bold] "
+        f"(≤ 5 % valid, ≤ 10 % caution)"
+    )
+    return v != "invalid"
 
 
 def _print_summary(summary: dict) -> None:
@@ -322,3 +531,7 @@ def presets() -> None:
 
 def main() -> None:  # pragma: no cover
     sys.exit(app())
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

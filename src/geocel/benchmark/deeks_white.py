@@ -1,8 +1,13 @@
 """The Deeks & White (2006) centrifuge benchmark: the 9 variants (conventional / coupled / rigid × S = 1, 10,
 100) as independent tasks on dask.distributed, then one figure, a table (Markdown + CSV) and a report.
 
-Each variant is a normal run directory under ``out/<variant>``; a variant whose ``summary.json`` says
-``finished`` is not run again, a failed variant is reported and does not stop the others.
+Each variant is a normal run directory under ``out/<variant>``. Before any computing (and before the dask
+cluster starts) every option is checked and every existing variant directory is compared with the requested
+scenario (:func:`plan_benchmark`): a directory holding another scenario (e.g. another ``--velocity``) is
+refused with the differing keys named, or set aside and run again with ``rerun``. A finished variant is
+reused; one with a readable checkpoint (even if its ``summary.json`` or history is broken) is resumed from it;
+a failed variant is reported and does not stop the others; an unreadable variant is left out of the report's
+curves and named in it.
 """
 
 from __future__ import annotations
@@ -11,17 +16,78 @@ import json
 import math
 import os
 import platform
+import shutil
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from ..config.scenario import Scenario
+from ..io.history import read_history
 from .plots import cell_average, plot_curves, value_at_depth, verdict
-from .presets import RESOLUTIONS, preset_dict
+from .presets import RESOLUTIONS, preset_dict, scenario_from_options
 
 KINDS = {"solid": "conventional", "coupled": "coupled", "rigid": "rigid"}
+#: names accepted for a pile kind in ``--variants`` (the table's own name of the solid pile included)
+KIND_NAMES = {"solid": "solid", "conventional": "solid", "coupled": "coupled", "rigid": "rigid"}
 SCALINGS = (1, 10, 100)
+#: the range of the mass-gravity scaling factor S ([scaling] mass_gravity)
+S_RANGE = (1.0, 1.0e4)
+
+
+def parse_variants(text: str) -> list[tuple[str, float]]:
+    """``"coupled:10,conventional:1"`` → ``[("coupled", 10.0), ("solid", 1.0)]``; ``ValueError`` (one line
+    naming the bad item and what is allowed) otherwise."""
+    allowed = "kind:S pairs, kind one of solid|conventional, coupled, rigid and S a number in [1, 10000]"
+    out: list[tuple[str, float]] = []
+    for item in text.split(","):
+        parts = item.strip().split(":")
+        if len(parts) != 2:
+            raise ValueError(f"--variants: {item.strip()!r} is not a kind:S pair (expected {allowed})")
+        kind, factor = parts[0].strip().lower(), parts[1].strip()
+        if kind not in KIND_NAMES:
+            raise ValueError(
+                f"--variants: unknown pile kind {parts[0].strip()!r} in {item.strip()!r} ({allowed})"
+            )
+        try:
+            S = float(factor)
+        except ValueError:
+            raise ValueError(
+                f"--variants: S = {factor!r} in {item.strip()!r} is not a number ({allowed})"
+            ) from None
+        if not (math.isfinite(S) and S_RANGE[0] <= S <= S_RANGE[1]):
+            raise ValueError(
+                f"--variants: S = {factor} in {item.strip()!r} is outside [1, 10000] (the mass-gravity scaling "
+                "factor; 1 = off)"
+            )
+        out.append((KIND_NAMES[kind], S))
+    return list(dict.fromkeys(out))
+
+
+def read_reference(path: str | Path) -> pd.DataFrame:
+    """A measured curve: CSV with numeric ``depth_m``, ``qb_MPa`` (and optionally ``qs_kPa``) columns;
+    ``ValueError`` naming the file and what is wrong otherwise."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"--reference = {str(path)!r}: file not found")
+    try:
+        ref = pd.read_csv(path, comment="#")
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as err:
+        reason = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise ValueError(f"--reference = {str(path)!r}: not a readable CSV ({reason})") from None
+    need = ["depth_m", "qb_MPa"]
+    missing = [c for c in need if c not in ref.columns]
+    if missing:
+        raise ValueError(
+            f"--reference = {str(path)!r}: no column {', '.join(missing)} (columns: {', '.join(map(str, ref.columns))}; "
+            "expected depth_m, qb_MPa[, qs_kPa])"
+        )
+    for c in [*need, *(["qs_kPa"] if "qs_kPa" in ref.columns else [])]:
+        if not pd.api.types.is_numeric_dtype(ref[c]) or len(ref) < 2:
+            raise ValueError(f"--reference = {str(path)!r}: column {c} must hold at least two numbers")
+    return ref
 
 
 def variant_name(kind: str, S: float, velocity_factor: float = 1.0) -> str:
@@ -41,6 +107,50 @@ def variant_dict(
     return d
 
 
+def variant_state(root: str | Path, scenario: Scenario, rerun: bool = False) -> str:
+    """What to do with the run directory of a variant: ``"new"`` (nothing usable there), ``"finished"``
+    (reuse), ``"resume"`` (a readable checkpoint of the same scenario) or ``"replace"`` (another scenario,
+    ``rerun`` given). A directory holding another scenario without ``rerun`` raises
+    :class:`~geocel.config.fingerprint.ScenarioMismatchError` naming the keys that differ."""
+    from ..config.fingerprint import check_same_scenario
+    from ..config.scenario import load_scenario
+    from ..io.checkpoint import CheckpointError, load_latest_checkpoint
+    from ..io.rundir import RunDirectory
+
+    rd = RunDirectory(root, create=False)
+    recorded = None
+    try:
+        recorded = load_scenario(rd.config_toml)
+    except (OSError, ValueError):
+        pass
+    checkpoint = None
+    try:
+        checkpoint = load_latest_checkpoint(rd.checkpoint)
+    except CheckpointError:
+        pass
+    if recorded is None and checkpoint is not None:
+        recorded = checkpoint[1].get("scenario")
+    if recorded is None:
+        return "new"
+    try:
+        check_same_scenario(
+            recorded,
+            scenario,
+            what=f"the run in {rd.root}",
+            hint="use another --out, or --rerun to set it aside and run the variant again",
+        )
+    except ValueError:
+        if rerun:
+            return "replace"
+        raise
+    try:
+        if rd.read_summary().get("status") == "finished":
+            return "finished"
+    except (OSError, ValueError, AttributeError):
+        pass
+    return "resume" if checkpoint is not None else "new"
+
+
 def run_variant(
     kind: str,
     S: float,
@@ -50,11 +160,11 @@ def run_variant(
     velocity: float,
     velocity_factor: float = 1.0,
     threads: int | None = None,
+    rerun: bool = False,
 ) -> dict:
-    """Run (or skip, if finished before) one variant; returns its summary (worker side). A variant that was
-    interrupted (its process killed, or the machine stopped) continues from its last checkpoint, provided
-    its run directory holds the same resolved scenario."""
-    from ..config.scenario import dump_scenario, scenario_from_dict
+    """Run, resume or reuse one variant (:func:`variant_state`); returns its summary (worker side), with
+    ``skipped`` true when a finished run of the same scenario was reused."""
+    from ..config.scenario import scenario_from_dict
     from ..solver.simulation import Simulation
 
     if threads:
@@ -63,17 +173,80 @@ def run_variant(
         numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     name = variant_name(kind, S, velocity_factor)
     root = Path(out_root) / name
-    done = root / "summary.json"
-    if done.is_file():
-        s = json.loads(done.read_text())
-        if s.get("status") == "finished":
-            return {**s, "variant": name, "skipped": True}
     sc = scenario_from_dict(variant_dict(kind, S, resolution, penetration, velocity, velocity_factor))
+    state = variant_state(root, sc, rerun)
+    if state == "finished":
+        return {**json.loads((root / "summary.json").read_text()), "variant": name, "skipped": True}
+    if state == "replace":
+        aside = root.with_name(root.name + ".replaced")
+        shutil.rmtree(aside, ignore_errors=True)
+        root.rename(aside)
     sim = Simulation(sc, out=root, progress=False, write_fields=False)
-    cfg = root / "config.toml"
-    same = cfg.is_file() and cfg.read_text() == dump_scenario(sc)
-    s = sim.run(restart=same and (root / "checkpoint.npz").is_file())
-    return {**s, "variant": name, "skipped": False}
+    s = sim.run(restart=state == "resume")
+    return {**s, "variant": name, "skipped": False, "resumed": state == "resume"}
+
+
+@dataclass
+class BenchmarkPlan:
+    """The checked options of a benchmark invocation (:func:`plan_benchmark`)."""
+
+    out: Path
+    resolution: str
+    penetration: float
+    velocity: float
+    todo: list[tuple[str, float, float]]
+    states: dict[str, str] = field(default_factory=dict)
+    reference: pd.DataFrame | None = None
+    reference_name: str | None = None
+    rerun: bool = False
+
+
+def plan_benchmark(
+    out: str | Path,
+    resolution: str = "demo",
+    penetration: float = 3.0,
+    velocity: float = 0.02,
+    variants: list[tuple[str, float]] | None = None,
+    reference: str | Path | None = None,
+    time_scaling: bool = False,
+    rerun: bool = False,
+) -> BenchmarkPlan:
+    """Check every option and every existing variant directory before anything is computed; raises
+    ``ValueError`` with one line naming the option, the value and what is allowed."""
+    if resolution not in RESOLUTIONS:
+        raise ValueError(f"--resolution = {resolution!r}: unknown (allowed: {', '.join(RESOLUTIONS)})")
+    for option, value in (("--penetration", penetration), ("--velocity", velocity)):
+        if not math.isfinite(value):
+            raise ValueError(f"{option} = {value}: not a finite number")
+        if value <= 0.0:
+            raise ValueError(f"{option} = {value:g}: must be a positive number")
+    todo = [
+        (KIND_NAMES.get(k, k), float(S), 1.0)
+        for k, S in (variants or [(k, S) for k in KINDS for S in SCALINGS])
+    ]
+    for k, S, _ in todo:
+        if k not in KINDS or not (S_RANGE[0] <= S <= S_RANGE[1]):
+            raise ValueError(
+                f"variant {k}:{S:g}: kind must be one of solid, coupled, rigid and S in [1, 10000]"
+            )
+    if time_scaling:  # MGS S = 100 against the same model jacked 10× faster (√100 = 10)
+        todo += [("coupled", 100.0, 1.0), ("coupled", 1.0, 10.0)]
+    todo = list(dict.fromkeys(todo))
+    ref = read_reference(reference) if reference is not None else None
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out = {str(out)!r}: exists and is not a directory")
+    states = {}
+    for k, S, vf in todo:
+        name = variant_name(k, S, vf)
+        sc = scenario_from_options(
+            variant_dict(k, S, resolution, penetration, velocity, vf), f"variant {name}: "
+        )
+        states[name] = variant_state(out / name, sc, rerun)
+    return BenchmarkPlan(
+        out, resolution, penetration, velocity, todo, states, ref,
+        f"measured ({Path(reference).name})" if reference is not None else None, rerun,
+    )  # fmt: skip
 
 
 def mpe(depth: np.ndarray, q: np.ndarray, ref_depth: np.ndarray, ref_q: np.ndarray) -> float:
@@ -115,22 +288,28 @@ def run_benchmark(
     time_scaling: bool = False,
     workers: int | None = None,
     echo=print,
+    rerun: bool = False,
+    plan: BenchmarkPlan | None = None,
 ) -> dict:
     """Run the variants on dask.distributed and write ``results.csv``, ``results.md``, ``curves.png`` and
-    ``report.md`` into ``out``. Returns {"table": DataFrame, "failed": {variant: error}}."""
+    ``report.md`` into ``out``. Returns {"table": DataFrame, "failed": {variant: error}}. All options are
+    checked first (:func:`plan_benchmark`, or the ``plan`` made before)."""
+    if plan is None:
+        plan = plan_benchmark(
+            out, resolution, penetration, velocity, variants, reference, time_scaling, rerun
+        )
     from dask.distributed import Client, LocalCluster, as_completed
 
-    out = Path(out)
+    out, resolution, penetration, velocity = plan.out, plan.resolution, plan.penetration, plan.velocity
     out.mkdir(parents=True, exist_ok=True)
-    todo = [(k, S, 1.0) for k, S in (variants or [(k, S) for k in KINDS for S in SCALINGS])]
-    if time_scaling:  # MGS S = 100 against the same model jacked 10× faster (√100 = 10)
-        todo += [("coupled", 100.0, 1.0), ("coupled", 1.0, 10.0)]
-        todo = list(dict.fromkeys(todo))
     # the longest variants first: idle workers take tasks in submission order, the priority orders the rest
-    todo.sort(key=lambda t: -_expected_cost(*t))
+    todo = sorted(plan.todo, key=lambda t: -_expected_cost(*t))
     n = workers or max(1, min(len(todo), os.cpu_count() or 1))
     if scheduler:
-        client = Client(scheduler)
+        try:
+            client = Client(scheduler, timeout=30)
+        except (OSError, TimeoutError, ValueError) as err:
+            raise ValueError(f"--scheduler = {scheduler!r}: cannot connect ({err})") from None
         threads = None
     else:
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
@@ -142,7 +321,7 @@ def run_benchmark(
     t0 = time.perf_counter()
     futures = {
         client.submit(
-            run_variant, k, S, str(out), resolution, penetration, velocity, vf, threads, pure=False,
+            run_variant, k, S, str(out), resolution, penetration, velocity, vf, threads, plan.rerun, pure=False,
             priority=_expected_cost(k, S, vf),
         ): variant_name(k, S, vf)
         for k, S, vf in todo
@@ -154,34 +333,51 @@ def run_benchmark(
         try:
             s = fut.result()
             summaries[name] = s
-            tag = "skipped (finished before)" if s.get("skipped") else f"{s['wall_time']:.0f} s"
+            tag = "reused (finished before)" if s.get("skipped") else f"{s['wall_time']:.0f} s"
+            if s.get("resumed"):
+                tag += ", resumed from its checkpoint"
             echo(f"  {name}: {s['status']}, {tag}")
             if s["status"] != "finished":
                 failed[name] = f"status {s['status']}: {s.get('diagnostic')}"
         except Exception as err:  # noqa: BLE001 - a failed variant must not stop the others
-            failed[name] = repr(err)
-            echo(f"  {name}: FAILED {err!r}")
+            failed[name] = f"{type(err).__name__}: {' '.join(str(err).split())}"
+            echo(f"  {name}: FAILED {failed[name]}")
     client.close()
     if not scheduler:
         cluster.close()
     wall = time.perf_counter() - t0
-    return write_results(out, [variant_name(k, S, vf) for k, S, vf in todo], summaries, failed, reference, wall,
-                         resolution, penetration, velocity)  # fmt: skip
+    return write_results(out, [variant_name(k, S, vf) for k, S, vf in todo], summaries, failed,
+                         plan.reference if plan.reference is not None else None, wall, resolution, penetration,
+                         velocity, reference_name=plan.reference_name)  # fmt: skip
 
 
-def write_results(out, names, summaries, failed, reference, wall, resolution, penetration, velocity) -> dict:
-    """Tables, figure and report from the run directories of the variants."""
+def write_results(
+    out, names, summaries, failed, reference, wall, resolution, penetration, velocity, reference_name=None
+) -> dict:
+    """Tables, figure and report from the run directories of the variants (``reference``: a measured curve,
+    as a CSV path or the table of :func:`read_reference`). A variant whose history cannot be read is left out
+    of the curves and the errors, and named in the report."""
     out = Path(out)
     width = RESOLUTIONS[resolution]["fine_size"] if resolution in RESOLUTIONS else 0.0
-    hist = {
-        n: cell_average(pd.read_csv(out / n / "history.csv"), width)
-        for n in names
-        if (out / n / "history.csv").is_file()
-    }
+    hist = {}
+    unreadable: dict[str, str] = {}
+    for n in names:
+        path = out / n / "history.csv"
+        if not path.is_file():
+            if n in summaries:
+                unreadable[n] = f"{path}: missing"
+            continue
+        try:
+            hist[n] = cell_average(read_history(path), width)
+        except (ValueError, KeyError, OSError) as err:
+            unreadable[n] = str(err)
     ref = None
+    ref_name = "nothing"
     if reference is not None:
-        ref = pd.read_csv(reference)
-        ref_name = f"measured ({Path(reference).name})"
+        ref = reference if isinstance(reference, pd.DataFrame) else read_reference(reference)
+        ref_name = reference_name or (
+            f"measured ({Path(reference).name})" if not isinstance(reference, pd.DataFrame) else "measured"
+        )
     elif "conventional-S1" in hist:
         h = hist["conventional-S1"]
         ref = pd.DataFrame({"depth_m": h["tip_depth"], "qb_MPa": h["qb"] / 1e6, "qs_kPa": h["qs"] / 1e3})
@@ -226,6 +422,8 @@ def write_results(out, names, summaries, failed, reference, wall, resolution, pe
         if h is not None and own is not None and own is not h:
             row["MPE_qb_vs_own_S1_%"] = mpe(h["tip_depth"].to_numpy(), h["qb"].to_numpy(),
                                             own["tip_depth"].to_numpy(), own["qb"].to_numpy())  # fmt: skip
+        if n in unreadable:
+            row["note"] = unreadable[n]
         if h is not None:
             for z in (1.0, 2.0, 3.0):
                 row[f"qb_at_{z:g}m_MPa"] = value_at_depth(h, "qb", z) / 1e6
@@ -233,14 +431,16 @@ def write_results(out, names, summaries, failed, reference, wall, resolution, pe
     table = pd.DataFrame(rows)
     table.to_csv(out / "results.csv", index=False)
     (out / "results.md").write_text(table.to_markdown(index=False, floatfmt=".4g"))
+    starts = {n: summaries[n].get("energy_check_from_penetration") for n in hist if n in summaries}
     fig = plot_curves(hist, out / "curves.png", reference=ref if reference is not None else None,
-                      title=f"Deeks & White (2006), {resolution} resolution, v = {velocity:g} m/s")  # fmt: skip
+                      title=f"Deeks & White (2006), {resolution} resolution, penetration {penetration:g} m, "
+                      f"v = {velocity:g} m/s", check_start=starts)  # fmt: skip
     lines = [
         "# Deeks & White (2006) pile-jacking benchmark",
         "",
         f"Resolution `{resolution}`, penetration {penetration:g} m, jacking velocity {velocity:g} m/s; "
         f"machine: {_machine()}; wall time of the invocation that wrote this report {wall:.0f} s (variants "
-        f"finished before are not run again: their own wall times are in the table). Errors (MPE) against {ref_name if ref is not None else 'nothing'}; "
+        f"finished before are not run again: their own wall times are in the table). Errors (MPE) against {ref_name}; "
         "`MPE_qb_vs_own_S1_%`: the error of the scaling alone, against the same pile at S = 1.",
         "Forces of the quarter model are multiplied by 4 (symmetry). q_b and q_s are averaged over one "
         f"grid cell of tip depth ({width:g} m): the ripple of the tip crossing cell faces is removed.",
@@ -284,8 +484,11 @@ def write_results(out, names, summaries, failed, reference, wall, resolution, pe
     lines += _time_scaling_lines(hist, summaries)
     if failed:
         lines += ["", "## Failed or not run", ""] + [f"- {k}: {v}" for k, v in failed.items()]
+    if unreadable:
+        lines += ["", "## Unreadable results (left out of the curves and errors)", ""]
+        lines += [f"- {k}: {v}" for k, v in unreadable.items()]
     (out / "report.md").write_text("\n".join(lines) + "\n")
-    return {"table": table, "failed": failed}
+    return {"table": table, "failed": failed, "unreadable": unreadable}
 
 
 def _time_scaling_lines(hist: dict, summaries: dict) -> list[str]:

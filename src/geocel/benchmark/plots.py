@@ -11,8 +11,19 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-#: limits of the quasi-static check on max(kinetic/internal energy)
-VALID, CAUTION = 0.05, 0.10
+from ..io.history import read_history  # noqa: E402
+from ..solver.quasi_static import CAUTION, VALID, verdict  # noqa: E402
+
+__all__ = [
+    "CAUTION",
+    "VALID",
+    "cell_average",
+    "check_start_depth",
+    "plot_curves",
+    "plot_run",
+    "value_at_depth",
+    "verdict",
+]
 
 
 def cell_average(h: pd.DataFrame, width: float) -> pd.DataFrame:
@@ -38,33 +49,61 @@ def value_at_depth(h: pd.DataFrame, column: str, z: float, tol: float = 0.02) ->
     return float(np.interp(min(z, d.max()), d, h[column].to_numpy()))
 
 
+def check_start_depth(h: pd.DataFrame, start_penetration: float | None) -> float:
+    """Tip depth (m) of the first history row at which the quasi-static check counts (head displacement ≥
+    ``start_penetration``); NaN if unknown."""
+    if start_penetration is None or "penetration" not in h or "tip_depth" not in h:
+        return float("nan")
+    rows = h[h["penetration"] >= start_penetration - 1e-9]
+    return float(rows["tip_depth"].iloc[0]) if len(rows) else float("nan")
+
+
 def plot_curves(
-    curves: dict[str, pd.DataFrame], path: str | Path, reference: pd.DataFrame | None = None, title: str = ""
+    curves: dict[str, pd.DataFrame],
+    path: str | Path,
+    reference: pd.DataFrame | None = None,
+    title: str = "",
+    check_start: dict[str, float | None] | None = None,
 ) -> Path:
     """One figure: q_b(z) (MPa), q_s(z) (kPa) and KE/IE(z) of every history in ``curves`` (label → the
-    history table of a run, without its row at rest); ``reference``: measured curve with ``depth_m, qb_MPa[, qs_kPa]``."""
+    history table of a run, without its row at rest); ``reference``: measured curve with ``depth_m, qb_MPa[,
+    qs_kPa]``; ``check_start``: label → head displacement (m) from which the quasi-static check counts (the
+    summary's ``energy_check_from_penetration``), marked on the energy panel. The energy axis covers every
+    checked value (and at least the 10 % limit); the ratio before the check starts is drawn faint."""
     fig, ax = plt.subplots(1, 3, figsize=(13, 6), sharey=True)
+    check_start = check_start or {}
+    top = 100 * CAUTION * 1.2
     for label, h in curves.items():
         z = h["tip_depth"]
         ax[0].plot(h["qb"] / 1e6, z, label=label)
         ax[1].plot(h["qs"] / 1e3, z, label=label)
-        ax[2].plot(100 * h["energy_ratio"], z, label=label)
+        ratio = 100 * h["energy_ratio"].to_numpy(dtype=float)
+        z0 = check_start_depth(h, check_start.get(label))
+        checked = z.to_numpy() >= z0 if np.isfinite(z0) else np.ones(len(h), bool)
+        line = ax[2].plot(np.where(checked, ratio, np.nan), z, label=label)[0]
+        if not checked.all():
+            ax[2].plot(np.where(checked, np.nan, ratio), z, color=line.get_color(), alpha=0.3, lw=1)
+            ax[2].axhline(z0, color=line.get_color(), ls="--", lw=0.8, label=f"check starts ({label})")
+        finite = ratio[checked & np.isfinite(ratio)]
+        if finite.size:
+            top = max(top, 1.05 * finite.max())
     if reference is not None:
         ax[0].plot(reference["qb_MPa"], reference["depth_m"], "k--", lw=2, label="measured")
         if "qs_kPa" in reference:
             ax[1].plot(reference["qs_kPa"], reference["depth_m"], "k--", lw=2, label="measured")
     ax[0].set_xlabel("base resistance $q_b$ (MPa)")
     ax[1].set_xlabel("average shaft friction $q_s$ (kPa)")
-    ax[2].set_xlabel("kinetic / internal energy (%)")
+    ax[2].set_xlabel("kinetic / internal energy (%), faint: before the check starts")
     ax[2].axvline(100 * VALID, color="g", ls=":", label="5 % (valid)")
     ax[2].axvline(100 * CAUTION, color="r", ls=":", label="10 % (invalid)")
-    ax[2].set_xlim(0, 30)
+    ax[2].set_xlim(0, top)
     ax[0].set_ylabel("pile tip depth (m)")
     ax[0].invert_yaxis()
     for a in ax:
         a.grid(alpha=0.3)
-    ax[0].legend(fontsize=8)
-    ax[2].legend(fontsize=8)
+    for a in (ax[0], ax[2]):
+        if a.get_legend_handles_labels()[0]:
+            a.legend(fontsize=8)
     if title:
         fig.suptitle(title)
     fig.tight_layout()
@@ -77,14 +116,14 @@ def plot_curves(
 
 def plot_run(run_dir: str | Path, label: str | None = None, width: float = 0.0) -> Path:
     """q_b, q_s and energy-ratio figure of one run directory (``pile_curves.png`` in it), q averaged over
-    ``width`` m of depth (:func:`cell_average`)."""
+    ``width`` m of depth (:func:`cell_average`); the start of the energy check from its ``summary.json``."""
+    import json
+
     run_dir = Path(run_dir)
-    h = cell_average(pd.read_csv(run_dir / "history.csv"), width)
-    return plot_curves({label or run_dir.name: h}, run_dir / "pile_curves.png", title=label or run_dir.name)
-
-
-def verdict(ratio: float) -> str:
-    """Quasi-static verdict of max(KE/IE): valid ≤ 5 %, caution ≤ 10 %, else invalid."""
-    if not ratio == ratio:  # NaN
-        return "unknown"
-    return "valid" if ratio <= VALID else ("caution" if ratio <= CAUTION else "invalid")
+    h = cell_average(read_history(run_dir / "history.csv"), width)
+    label = label or run_dir.name
+    try:
+        start = json.loads((run_dir / "summary.json").read_text()).get("energy_check_from_penetration")
+    except (OSError, ValueError, AttributeError):
+        start = None
+    return plot_curves({label: h}, run_dir / "pile_curves.png", title=label, check_start={label: start})

@@ -16,7 +16,10 @@ from __future__ import annotations
 import tomllib
 from importlib import resources
 
-from ..config.scenario import Scenario, scenario_from_dict
+from ..config.scenario import Scenario, ScenarioError, scenario_from_dict
+
+#: scenario keys set by command-line options of ``geocel demo`` and ``geocel benchmark``
+OPTION_KEYS = {"[loading].penetration": "--penetration", "[loading].velocity": "--velocity"}
 
 PRESETS = ("deeks-white",)
 RESOLUTIONS = {
@@ -56,9 +59,25 @@ def preset_dict(
             raise ValueError(f"unknown resolution {resolution!r}; available: {', '.join(RESOLUTIONS)}")
         d["domain"].update(RESOLUTIONS[resolution])
         if "fine_depth" not in RESOLUTIONS[resolution]:
-            d["domain"]["fine_depth"] = d["loading"]["penetration"] + 2.0
+            # (capped at the soil depth: a penetration too deep is then reported as such, not as fine_depth)
+            d["domain"]["fine_depth"] = min(d["loading"]["penetration"] + 2.0, d["domain"]["soil_depth"])
     return d
 
 
 def preset_scenario(name: str, **kw) -> Scenario:
     return scenario_from_dict(preset_dict(name, **kw))
+
+
+def scenario_from_options(data: dict, label: str = "") -> Scenario:
+    """Validate a scenario made from command-line options: a problem with a key that an option set
+    (:data:`OPTION_KEYS`) is reported under the option's name, all problems in one ``ValueError`` line."""
+    try:
+        return scenario_from_dict(data)
+    except ScenarioError as err:
+        problems = []
+        for p in err.problems:
+            for key, option in OPTION_KEYS.items():
+                if p.startswith(key):
+                    p = option + p[len(key) :]
+            problems.append(p)
+        raise ValueError(label + "; ".join(problems)) from None

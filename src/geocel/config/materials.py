@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from ..materials import elastic as _el
 from ..materials import hypoplastic as _hp
@@ -20,7 +20,8 @@ from ..materials.kernels import ELASTIC, HYPOPLASTIC, MOHR_COULOMB
 
 
 class _Material(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    # allow_inf_nan=False: NaN and ±inf are rejected in every parameter ("not a finite number")
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
     grain_density: float = Field(2650.0, gt=0.0, le=10000.0, description="grain density ρ_s, kg/m³")
 
@@ -298,7 +299,20 @@ def material_from_dict(table: dict[str, Any]) -> Material:
     if model not in _CLASSES:
         raise ValueError(f"[soil] model = {model!r} is unknown; choose one of {sorted(_CLASSES)}")
     merged["model"] = model
-    return _CLASSES[model](**merged)
+    try:
+        return _CLASSES[model](**merged)
+    except ValidationError as exc:
+        raise ValueError("invalid [soil] table:\n" + "\n".join(_problem(e) for e in exc.errors())) from None
+
+
+def _problem(err: Any) -> str:
+    """One ``[soil].key = value: reason`` line of a pydantic error (NaN/inf: "not a finite number")."""
+    reason = "not a finite number" if err["type"] == "finite_number" else err["msg"]
+    reason = reason.removeprefix("Value error, ")
+    key = ".".join(str(part) for part in err["loc"])
+    if not key:
+        return f"  [soil]: {reason}"
+    return f"  [soil].{key} = {err.get('input')!r}: {reason}"
 
 
 def load_material(spec: str) -> Material:

@@ -107,7 +107,8 @@ def _invalid(loc: tuple[str | int, ...], value: Any, reason: str) -> PydanticCus
 
 
 class _Table(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    # allow_inf_nan=False: NaN and ±inf are rejected in every numeric key ("not a finite number")
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -181,6 +182,11 @@ class Soil(_Table):
 
     material: Material = Field(..., description="constitutive model and its parameters")
     layers: list[Layer] = Field(..., min_length=1, description="layers from the surface downwards")
+    allow_void_ratio_outside_limits: bool = Field(
+        False,
+        description="accept a layer whose e0 lies outside [e_d, e_i] of hypoplasticity at the layer's "
+        "geostatic stress (the model then clips e in its factors; see docs/numerics.md)",
+    )
 
     @model_validator(mode="before")
     @classmethod
@@ -189,6 +195,7 @@ class Soil(_Table):
             return data
         table = dict(data)
         layers = table.pop("layers", None)
+        allow = table.pop("allow_void_ratio_outside_limits", None)
         preset = table.pop("preset", None)
         base: dict[str, Any] = {}
         if preset is not None:
@@ -206,6 +213,8 @@ class Soil(_Table):
         out: dict[str, Any] = {"material": merged}
         if layers is not None:
             out["layers"] = layers
+        if allow is not None:
+            out["allow_void_ratio_outside_limits"] = allow
         return out
 
     @model_validator(mode="after")
@@ -225,17 +234,41 @@ class Soil(_Table):
                     layer.relative_density,
                     f"needs a hypoplastic material (e_c0, e_d0); give e0 for model = {self.material.model!r}",
                 )
-            if (
-                layer.e0 is not None
-                and isinstance(self.material, Hypoplastic)
-                and layer.e0 > self.material.e_i0
-            ):
-                raise _invalid(
-                    ("layers", i, "e0"),
-                    layer.e0,
-                    f"exceeds the loosest void ratio e_i0 = {self.material.e_i0}",
-                )
         return self
+
+    def geostatic_mean_stress(self, depth: float, soil_depth: float, k0: float, gravity: float) -> float:
+        """Mean effective stress p (Pa, compression positive) of the initial state at ``depth`` (m).
+
+        σ'_v = ∫ ρ_d g dz over the layers above (dry soil, ρ_d = ρ_s / (1 + e0) per layer) and
+        p = σ'_v (1 + 2 K0) / 3, as the geostatic initial state of the field solver."""
+        tops = [layer.top for layer in self.layers] + [soil_depth]
+        sv = 0.0
+        for i, layer in enumerate(self.layers):
+            z0, z1 = tops[i], min(tops[i + 1], depth)
+            if z1 <= z0:
+                break
+            rho_d = float(self.material.dry_density(self.void_ratio_of(layer)))
+            sv += rho_d * gravity * (z1 - z0)
+        return sv * (1.0 + 2.0 * k0) / 3.0
+
+    def void_ratio_limits(
+        self, index: int, soil_depth: float, k0: float, gravity: float
+    ) -> tuple[float, float, float, float] | None:
+        """Allowed initial void ratio of layer ``index``: ``(e_min, e_max, p_top, p_bottom)`` or None.
+
+        e0 must lie inside [e_d(p), e_i(p)] of Bauer's law at every depth of the layer. Both limits fall
+        with the mean stress p, which grows with depth, so the binding ones are e_d at the layer's top
+        and e_i at its bottom (at the surface, p → 0: e_d0 and e_i0). None for a non-hypoplastic soil."""
+        mat = self.material
+        if not isinstance(mat, Hypoplastic):
+            return None
+        top = self.layers[index].top
+        bottom = self.layers[index + 1].top if index + 1 < len(self.layers) else soil_depth
+        p_top = self.geostatic_mean_stress(top, soil_depth, k0, gravity)
+        p_bot = self.geostatic_mean_stress(bottom, soil_depth, k0, gravity)
+        e_min = float(mat.limit_void_ratios(p_top)[0])
+        e_max = float(mat.limit_void_ratios(p_bot)[2])
+        return e_min, e_max, p_top, p_bot
 
     def void_ratio_of(self, layer: Layer, material: MaterialModel | None = None) -> float:
         """Initial void ratio of ``layer``, -.
@@ -474,20 +507,16 @@ class Scenario(_Table):
 
     @model_validator(mode="after")
     def _check(self) -> Scenario:
+        depth = self.domain.soil_depth
+        for i, layer in enumerate(self.soil.layers):
+            if layer.top >= depth:
+                raise _invalid(
+                    ("soil", "layers", i, "top"), layer.top, f"must be above the base, soil_depth = {depth} m"
+                )
+        if not self.soil.allow_void_ratio_outside_limits:
+            self._check_void_ratios()
         if self.pile is not None:
-            if self.pile.diameter / 2.0 >= self.domain.radius:
-                raise _invalid(
-                    ("pile", "diameter"),
-                    self.pile.diameter,
-                    f"pile wider than the domain radius {self.domain.radius} m",
-                )
-            tip = self.pile.initial_embedment + self.loading.penetration
-            if tip >= self.domain.soil_depth:
-                raise _invalid(
-                    ("loading", "penetration"),
-                    self.loading.penetration,
-                    f"the tip would reach {tip} m, beyond soil_depth = {self.domain.soil_depth} m",
-                )
+            self._check_pile_geometry()
             if self.contact.friction is None and isinstance(self.soil.material, Elastic):
                 raise _invalid(
                     ("contact", "friction"),
@@ -495,6 +524,71 @@ class Scenario(_Table):
                     "required for an elastic soil (no friction angle for the default)",
                 )
         return self
+
+    def _check_void_ratios(self) -> None:
+        """Each layer's e0 inside [e_d, e_i] at its geostatic stress (see :meth:`Soil.void_ratio_limits`)."""
+        k0, g = self.initial.k0, self.solver.gravity
+        for i, layer in enumerate(self.soil.layers):
+            limits = self.soil.void_ratio_limits(i, self.domain.soil_depth, k0, g)
+            if limits is None:
+                return
+            e_min, e_max, p_top, p_bot = limits
+            e = self.soil.void_ratio_of(layer)
+            tol = 1e-12 * max(abs(e), 1.0)
+            if e_min - tol <= e <= e_max + tol:
+                continue
+            bottom = self.soil.layers[i + 1].top if i + 1 < len(self.soil.layers) else self.domain.soil_depth
+            if layer.e0 is not None:
+                key, value, what = "e0", layer.e0, "is"
+            else:
+                key, value, what = "relative_density", layer.relative_density, f"gives e0 = {e:.4g},"
+            side = f"below e_d = {e_min:.4g}" if e < e_min else f"above e_i = {e_max:.4g}"
+            raise _invalid(
+                ("soil", "layers", i, key),
+                value,
+                f"{what} {side}: e0 must lie in [e_d, e_i] = [{e_min:.4g}, {e_max:.4g}] (e_d at the layer's top, "
+                f"{layer.top:g} m, p = {p_top / 1e3:.4g} kPa; e_i at its bottom, {bottom:g} m, p = "
+                f"{p_bot / 1e3:.4g} kPa; Bauer's law e_x = e_x0 exp(-(3p/h_s)^n), p from the geostatic "
+                f"σ'_v = ρ_d g z and K0 = {k0:g}); set [soil] allow_void_ratio_outside_limits = true to "
+                "run it anyway",
+            )
+
+    def _check_pile_geometry(self) -> None:
+        """The pile fits the domain, the fine zone holds it and its head stays above the surface."""
+        assert self.pile is not None
+        pile, dom = self.pile, self.domain
+        if pile.diameter / 2.0 >= dom.radius:
+            raise _invalid(
+                ("pile", "diameter"), pile.diameter, f"pile wider than the domain radius {dom.radius} m"
+            )
+        if pile.diameter / 2.0 > dom.fine_radius:
+            raise _invalid(
+                ("domain", "fine_radius"),
+                dom.fine_radius,
+                f"must be ≥ the pile radius {pile.diameter / 2.0:g} m (the fine zone must hold the pile)",
+            )
+        height = dom.soil_depth + dom.void_height
+        if pile.length > height:
+            raise _invalid(
+                ("pile", "length"),
+                pile.length,
+                f"longer than the domain is high (soil_depth + void_height = {height:g} m)",
+            )
+        tip = pile.initial_embedment + self.loading.penetration
+        if tip >= dom.soil_depth:
+            raise _invalid(
+                ("loading", "penetration"),
+                self.loading.penetration,
+                f"initial_embedment + penetration = {tip:g} m: the tip would reach or pass the base, "
+                f"soil_depth = {dom.soil_depth} m",
+            )
+        if tip > pile.length:
+            raise _invalid(
+                ("loading", "penetration"),
+                self.loading.penetration,
+                f"initial_embedment + penetration = {tip:g} m exceeds the pile length {pile.length:g} m "
+                "(the head would enter the soil)",
+            )
 
     def friction_coefficient(self) -> float:
         """Soil–pile Coulomb friction μ, - (``[contact].friction`` or tan(2/3 φ_c))."""
@@ -560,6 +654,8 @@ def _describe(err: Any) -> str:
         is_key = not isinstance(value, dict)
     if reason.startswith("Value error, "):
         reason = reason[len("Value error, ") :]
+    if kind == "finite_number":
+        reason = "not a finite number"
 
     if is_key and loc and isinstance(loc[-1], str):
         table, key = loc[:-1], str(loc[-1])
@@ -570,7 +666,7 @@ def _describe(err: Any) -> str:
         if model is not None:
             allowed = sorted(model.model_fields)
             if table == ["soil"]:
-                allowed = sorted({*allowed, "preset", "layers"})
+                allowed = sorted({*allowed, "preset", "layers", "allow_void_ratio_outside_limits"})
             reason = f"unknown key (allowed: {', '.join(allowed)})"
         else:
             reason = "unknown key"
@@ -623,6 +719,7 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
     data = scenario.model_dump(mode="json", exclude_none=True)
     material = scenario.soil.material.model_dump(mode="json", exclude_none=True)
     soil: dict[str, Any] = {"model": material.pop("model"), **material}
+    soil["allow_void_ratio_outside_limits"] = scenario.soil.allow_void_ratio_outside_limits
     soil["layers"] = [layer.model_dump(mode="json", exclude_none=True) for layer in scenario.soil.layers]
     data["soil"] = soil
     return data

@@ -348,6 +348,110 @@ def initial_stress(p0: float, k0: float = 1.0) -> np.ndarray:
     return np.array([-k0 * sv, -k0 * sv, -sv, 0.0, 0.0, 0.0])
 
 
+def _finite(name: str, value: float | None, *, positive: str | None = None) -> None:
+    """``name = value: not a finite number`` for NaN/inf; with ``positive`` (the rule, e.g. "must be a
+    positive number") also for a value ≤ 0."""
+    if value is None:
+        return
+    if not math.isfinite(value):
+        raise ValueError(f"{name} = {value}: not a finite number")
+    if positive is not None and value <= 0.0:
+        raise ValueError(f"{name} = {value:g}: {positive}")
+
+
+def path_increments(path: pd.DataFrame | None, name: str = "path CSV") -> np.ndarray:
+    """The strain increments (n × 6) of a ``path`` table; ``ValueError`` if columns or numbers are bad.
+
+    ``name`` starts each message (the command line passes ``--path = 'FILE'``)."""
+    if path is None:
+        raise ValueError("kind 'path' needs a CSV of strain increments (columns dexx … deyz)")
+    missing = [c for c in DELTA_COLUMNS if c not in path.columns]
+    if missing:
+        raise ValueError(
+            f"{name}: lacks the columns {missing} (columns: {', '.join(map(str, path.columns))})"
+        )
+    try:
+        incs = path[DELTA_COLUMNS].to_numpy(dtype=float)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"{name}: the columns {DELTA_COLUMNS} must hold numbers ({err})") from None
+    if len(incs) == 0:
+        raise ValueError(f"{name}: has no rows")
+    if not np.all(np.isfinite(incs)):
+        row = int(np.flatnonzero(~np.isfinite(incs).all(axis=1))[0]) + 1
+        raise ValueError(f"{name}: an increment in row {row} is not a finite number")
+    return incs
+
+
+def check_options(
+    kind: str,
+    material: MaterialT,
+    *,
+    e0: float = 0.65,
+    p0: float = 100.0e3,
+    k0: float = 1.0,
+    strain: float | None = None,
+    steps: int = 1000,
+    cycles: int = 3,
+    amplitude: float | None = None,
+    control: str = "strain",
+    intergranular: str = "zero",
+    stress0: np.ndarray | None = None,
+    state0: np.ndarray | None = None,
+    tol: float = 1.0e-6,
+    allow_void_ratio_outside_limits: bool = False,
+    option_prefix: str = "",
+) -> None:
+    """Check the options of :func:`element_test` before anything runs; ``ValueError`` as one line
+    ``option = value: rule``.
+
+    Numbers must be finite (NaN/inf: "not a finite number"); e0, p0, k0, strain, amplitude, steps, cycles
+    and tol positive, tol below 1. For a hypoplastic material e0 must lie inside [e_d, e_i] of Bauer's law
+    at the initial mean stress: p0, or p = −tr σ/3 of ``stress0`` where one is given (``path``);
+    ``allow_void_ratio_outside_limits`` skips this check. ``option_prefix`` ("--" on the command line) goes
+    before each option's name (``stress0`` is ``stress``, the intergranular strain of ``state0`` ``delta``)."""
+    o = option_prefix
+    if kind not in KINDS:
+        raise ValueError(f"kind = {kind!r}: choose one of {', '.join(KINDS)}")
+    for name, value in (("steps", steps), ("cycles", cycles)):
+        if value < 1:
+            raise ValueError(f"{o}{name} = {value}: must be a positive number")
+    if control not in ("strain", "stress"):
+        raise ValueError(f"{o}control = {control!r}: expected 'strain' or 'stress'")
+    if intergranular not in ("zero", "vertical"):
+        raise ValueError(f"{o}intergranular = {intergranular!r}: expected 'zero' or 'vertical'")
+    _finite(f"{o}e0", e0, positive="must be a positive void ratio")
+    _finite(f"{o}k0", k0, positive="must be a positive ratio σ_h/σ_v")
+    _finite(f"{o}strain", strain, positive="must be a positive number")
+    _finite(f"{o}amplitude", amplitude, positive="must be a positive number")
+    _finite(f"{o}tol", tol, positive="must be a positive number")
+    if tol >= 1.0:
+        raise ValueError(f"{o}tol = {tol:g}: must be below 1 (a relative error)")
+    if stress0 is None:
+        _finite(f"{o}p0", p0, positive="must be a positive number")
+        p, where = p0, f"p0 = {p0:g} Pa"
+    else:
+        sig = np.asarray(stress0, dtype=float)
+        if sig.shape != (6,) or not np.all(np.isfinite(sig)):
+            raise ValueError(f"{o}stress = {sig.tolist()}: needs 6 finite numbers (Pa)")
+        p = float(-sig[:3].sum() / 3.0)
+        where = f"the given stress (p = −tr σ/3 = {p:g} Pa)"
+        if isinstance(material, Hypoplastic) and p <= 0.0:
+            raise ValueError(
+                f"{o}stress = {sig.tolist()}: mean stress p = {p:g} Pa is not compressive; hypoplasticity "
+                "needs compression (negative normal stresses, tension positive)"
+            )
+    if state0 is not None and not np.all(np.isfinite(np.asarray(state0, dtype=float))):
+        raise ValueError(f"{o}delta = {np.asarray(state0)[1:].tolist()}: not a finite number")
+    if isinstance(material, Hypoplastic) and not allow_void_ratio_outside_limits:
+        ed, _, ei = material.limit_void_ratios(p)
+        if not (ed <= e0 <= ei):
+            allow = "--allow-void-ratio-outside-limits" if o else "allow_void_ratio_outside_limits=True"
+            raise ValueError(
+                f"{o}e0 = {e0:g}: is outside [e_d, e_i] = [{ed:.4f}, {ei:.4f}] at {where} (Bauer's law "
+                f"e_x = e_x0 exp(-(3p/h_s)^n)); allow it deliberately with {allow}"
+            )
+
+
 def element_test(
     kind: str,
     material: MaterialT,
@@ -367,23 +471,33 @@ def element_test(
     state0: np.ndarray | None = None,
     tol: float = 1.0e-6,
     progress: Callable[[int], None] | None = None,
+    allow_void_ratio_outside_limits: bool = False,
 ) -> ElementTestResult:
     """Run one of :data:`KINDS` (see the CLI help for the meaning of each option).
+
+    The options are checked first by :func:`check_options` (``ValueError`` naming the option).
 
     ``strain``: final axial strain (triaxial kinds, oedometer), volumetric strain (isotropic) or
     engineering shear strain γ (simple shear), as a positive number. ``amplitude``: cyclic strain
     amplitude (−) or deviator amplitude (Pa) with ``control = "stress"``.
     """
-    if kind not in KINDS:
-        raise ValueError(f"kind = {kind!r}: choose one of {', '.join(KINDS)}")
-    if steps < 1:
-        raise ValueError(f"steps = {steps} must be ≥ 1")
-    if e0 <= 0:
-        raise ValueError(f"e0 = {e0} must be positive")
-    if isinstance(material, Hypoplastic):
-        ed, _, ei = material.limit_void_ratios(p0)
-        if not (ed <= e0 <= ei):
-            raise ValueError(f"e0 = {e0} is outside [e_d, e_i] = [{ed:.4f}, {ei:.4f}] at p0 = {p0:g} Pa")
+    check_options(
+        kind,
+        material,
+        e0=e0,
+        p0=p0,
+        k0=k0,
+        strain=strain,
+        steps=steps,
+        cycles=cycles,
+        amplitude=amplitude,
+        control=control,
+        intergranular=intergranular,
+        stress0=stress0,
+        state0=state0,
+        tol=tol,
+        allow_void_ratio_outside_limits=allow_void_ratio_outside_limits,
+    )
     sig0 = initial_stress(p0, k0) if stress0 is None else np.asarray(stress0, dtype=float)
     st0 = material.initial_state(e0, intergranular) if state0 is None else np.asarray(state0, dtype=float)
     sgn = 1.0 if extension else -1.0
@@ -414,12 +528,7 @@ def element_test(
     elif kind == "cyclic-triaxial":
         segments.extend(_cyclic_segments(sig0, steps, cycles, amplitude, control, drained))
     elif kind == "path":
-        if path is None:
-            raise ValueError("kind 'path' needs a CSV of strain increments (columns dexx … deyz)")
-        missing = [c for c in DELTA_COLUMNS if c not in path.columns]
-        if missing:
-            raise ValueError(f"path CSV lacks the columns {missing}; needs {DELTA_COLUMNS}")
-        incs = path[DELTA_COLUMNS].to_numpy(dtype=float)
+        incs = path_increments(path)
         segments = (Segment(strain_step(row), 1, label=f"row {i + 1}") for i, row in enumerate(incs))  # type: ignore[assignment]
     return run_segments(material, sig0, st0, segments, kind=kind, tol=tol, progress=progress)
 

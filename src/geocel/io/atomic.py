@@ -28,14 +28,19 @@ def atomic_write(
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+    sync_directory(path.parent)
+    return path
+
+
+def sync_directory(directory: str | Path) -> None:
+    """Make renames in ``directory`` durable (``fsync`` of the directory where the OS allows it)."""
     try:
-        dir_fd = os.open(path.parent, os.O_RDONLY)
+        dir_fd = os.open(directory, os.O_RDONLY)
     except OSError:
-        return path
+        return
     try:
         os.fsync(dir_fd)
     except OSError:
         pass
     finally:
         os.close(dir_fd)
-    return path

@@ -4,6 +4,10 @@ Each row goes to the file in one ``os.write`` call on an ``O_APPEND`` descriptor
 so a process killed at any moment leaves only complete lines behind; ``os.fsync`` (against power loss)
 runs at most once per ``fsync_interval`` seconds and on :meth:`HistoryWriter.close`. Values are written
 with full precision (``repr`` of the float: the shortest text that reads back bit-exact); SI units.
+
+The file may start with comment lines (``# ...``, e.g. the units of the columns) before the header;
+:func:`read_history` reads it into a DataFrame with the comments skipped (``pandas.read_csv(path,
+comment="#")``) and the comment lines in ``DataFrame.attrs["comments"]``.
 """
 
 from __future__ import annotations
@@ -13,11 +17,14 @@ import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-__all__ = ["HistoryWriter", "format_value", "truncate_after"]
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = ["HistoryWriter", "format_value", "read_history", "truncate_after"]
 
 _SPECIAL = set(',"\n\r')
 
@@ -42,7 +49,8 @@ class HistoryWriter:
 
     ``path``: the CSV file; ``columns``: the column names in order (the header). ``append=True`` (a
     restart) keeps an existing file, checks that its header equals ``columns`` and drops an incomplete
-    last line; otherwise the file is (re)created with the header."""
+    last line; otherwise the file is (re)created with the ``preamble`` (comment lines, each written as
+    ``# text``) and the header."""
 
     def __init__(
         self,
@@ -51,6 +59,7 @@ class HistoryWriter:
         *,
         append: bool = False,
         fsync_interval: float = 1.0,
+        preamble: Sequence[str] = (),
     ) -> None:
         self.path = Path(path)
         self.columns = list(columns)
@@ -68,7 +77,9 @@ class HistoryWriter:
 
         if append and self.path.is_file() and self.path.stat().st_size > 0:
             with self.path.open("rb") as f:
-                first = f.readline().decode()
+                first = f.readline().decode(errors="replace")
+                while first.startswith("#"):
+                    first = f.readline().decode(errors="replace")
             if first != header:
                 raise ValueError(
                     f"{self.path}: existing header {first.strip()!r} does not match the columns {header.strip()!r}"
@@ -77,7 +88,8 @@ class HistoryWriter:
             self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND)
         else:
             self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_APPEND, 0o644)
-            self._write(header.encode())
+            comments = "".join(f"# {line}\n" for line in preamble)
+            self._write((comments + header).encode())
             os.fsync(self._fd)
         self._last_sync = time.monotonic()
 
@@ -144,7 +156,13 @@ def truncate_after(path: str | Path, step: int) -> int:
 
     The file is rewritten atomically (temporary file + ``os.replace``)."""
     path = Path(path)
-    lines = path.read_bytes().decode().splitlines(keepends=True)
+    try:
+        lines = path.read_bytes().decode().splitlines(keepends=True)
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text file") from None
+    comments = []
+    while lines and lines[0].startswith("#"):
+        comments.append(lines.pop(0))
     if not lines or not lines[0].endswith("\n"):
         raise ValueError(f"{path}: no complete header line")
     header = lines[0]
@@ -152,7 +170,7 @@ def truncate_after(path: str | Path, step: int) -> int:
     if "step" not in names:
         raise ValueError(f"{path}: no 'step' column in the header {names}")
     col = names.index("step")
-    kept = [header]
+    kept = [*comments, header]
     for line in lines[1:]:
         if not line.endswith("\n"):
             continue
@@ -169,4 +187,27 @@ def truncate_after(path: str | Path, step: int) -> int:
         f.flush()
         os.fsync(f.fileno())
     os.replace(tmp, path)
-    return len(kept) - 1
+    return len(kept) - 1 - len(comments)
+
+
+def read_history(path: str | Path) -> pd.DataFrame:
+    """``history.csv`` as a DataFrame (comment lines skipped, kept in ``attrs["comments"]``). Raises
+    ``ValueError`` naming the file if it cannot be parsed or has no ``step`` column."""
+    import pandas as pd
+
+    path = Path(path)
+    try:
+        df = pd.read_csv(path, comment="#")
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
+        reason = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise ValueError(f"{path}: unreadable history ({reason})") from None
+    if "step" not in df.columns:
+        raise ValueError(f"{path}: unreadable history (no 'step' column in the header)")
+    comments = []
+    with path.open("rb") as f:
+        for line in f:
+            if not line.startswith(b"#"):
+                break
+            comments.append(line.decode(errors="replace")[1:].strip())
+    df.attrs["comments"] = comments
+    return df

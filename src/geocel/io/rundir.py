@@ -5,7 +5,7 @@
     <root>/config.toml      resolved scenario (dump_scenario)
     <root>/history.csv      appended while running (HistoryWriter)
     <root>/summary.json     written at the end (and may be updated while running)
-    <root>/checkpoint.npz   latest restart state
+    <root>/checkpoint.npz   latest restart state (checkpoint.prev.npz: the one before, kept as a fallback)
     <root>/fields/          VTK snapshots  + fields/fields.pvd (the ParaView series)
     <root>/*.png            plots
 """
@@ -54,7 +54,14 @@ class RunDirectory:
     def __init__(self, root: str | Path, *, create: bool = True) -> None:
         self.root = Path(root)
         if create:
-            self.fields_dir.mkdir(parents=True, exist_ok=True)
+            try:
+                self.fields_dir.mkdir(parents=True, exist_ok=True)
+            except OSError as err:
+                raise OSError(
+                    err.errno,
+                    f"cannot create the run directory ({err.strerror}); choose another with --out",
+                    str(self.root),
+                ) from None
 
     @property
     def config_toml(self) -> Path:
@@ -73,6 +80,10 @@ class RunDirectory:
         return self.root / "checkpoint.npz"
 
     @property
+    def checkpoint_previous(self) -> Path:
+        return self.root / "checkpoint.prev.npz"
+
+    @property
     def fields_dir(self) -> Path:
         return self.root / "fields"
 
@@ -83,6 +94,20 @@ class RunDirectory:
     def field_path(self, body: str, index: int) -> Path:
         """Snapshot path without extension, e.g. ``fields/soil_00012`` (the writer adds .vtr/.vtu)."""
         return self.fields_dir / f"{body}_{index:05d}"
+
+    def check_writable(self) -> None:
+        """Raise :class:`OSError` (naming the directory and the reason) unless files can be created in it."""
+        probe = self.root / ".geocel-write-test"
+        try:
+            self.fields_dir.mkdir(parents=True, exist_ok=True)
+            probe.write_bytes(b"")
+            probe.unlink()
+        except OSError as err:
+            raise OSError(
+                err.errno,
+                f"run directory is not writable ({err.strerror}); choose another with --out",
+                str(self.root),
+            ) from None
 
     def write_config(self, scenario: Scenario) -> Path:
         """Write the resolved scenario to ``config.toml`` (atomically)."""

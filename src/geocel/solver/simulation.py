@@ -3,12 +3,25 @@
 Outputs are callbacks on the loop with their own schedules: a progress bar, the history table (appended
 row by row, readable after a kill), VTK field snapshots with a ParaView .pvd series, checkpoints (restart
 with ``geocel run FILE --restart``) and ``summary.json``. An instability stops the run with a diagnostic and
-writes the last good state (kept in memory) as a final snapshot and checkpoint.
+writes the last complete state as a final snapshot and checkpoint.
+
+Restarts (DESIGN.md §1, "a killed run leaves everything readable"):
+
+* checkpoints are taken only between steps; the first Ctrl-C (SIGINT) lets the current step finish and stops
+  with a checkpoint of it, a second one stops at once and keeps the last complete state (the newest of the
+  in-memory snapshot and the checkpoint on disk);
+* every checkpoint records the resolved scenario; a restart with a scenario that differs is refused with the
+  differing keys named (:func:`~geocel.config.fingerprint.check_same_scenario`; ``allow_changes`` admits the
+  keys that are safe to change, e.g. the output schedules or the penetration target);
+* an unreadable checkpoint falls back to the previous one (``checkpoint.prev.npz``);
+* restarting a finished run changes nothing; phase times, wall time and cost estimates add up over restarts.
 """
 
 from __future__ import annotations
 
 import math
+import signal
+import threading
 import time as _time
 from collections.abc import Callable
 from pathlib import Path
@@ -18,15 +31,17 @@ import numpy as np
 
 from ..bodies.geometry import PileGeometry, pile_mesh
 from ..bodies.pile import PileBody, RigidPile, build_pile, head_displacement, head_velocity
-from ..config.scenario import Scenario
+from ..config.fingerprint import check_same_scenario, resolved_dict, scenario_fingerprint
+from ..config.scenario import Scenario, ScenarioError, load_scenario
 from ..contact.coupling import ContactCoupling
 from ..grid import Grid
-from ..io.checkpoint import load_checkpoint, save_checkpoint
+from ..io.checkpoint import CheckpointError, load_latest_checkpoint, save_checkpoint
 from ..io.history import HistoryWriter, truncate_after
 from ..io.rundir import RunDirectory
 from ..io.vtk import PvdSeries, write_rectilinear, write_unstructured_hex
 from ..materials import flags as fl
 from .field import InstabilityError, SoilField, SolverSettings
+from .quasi_static import verdict as _verdict
 
 HISTORY_COLUMNS = [
     "step",
@@ -57,6 +72,55 @@ HISTORY_COLUMNS = [
     "max_velocity",
     "wall_time",
 ]
+
+#: unit of each history column (the first comment line of ``history.csv``)
+HISTORY_UNITS = {
+    "step": "-",
+    "time": "s",
+    "dt": "s",
+    "penetration": "m",
+    "tip_depth": "m",
+    "qb": "Pa",
+    "qs": "Pa",
+    "base_force": "N",
+    "shaft_force": "N",
+    "head_force": "N",
+    "pile_kinetic_energy": "J",
+    "pile_strain_energy": "J",
+    "friction_work": "J",
+    "jack_work": "J",
+    "soil_inside_pile": "m3",
+    "kinetic_energy": "J",
+    "internal_energy": "J",
+    "external_work": "J",
+    "viscous_dissipation": "J",
+    "hourglass_dissipation": "J",
+    "remap_kinetic_loss": "J",
+    "energy_error": "J",
+    "energy_ratio": "-",
+    "soil_mass": "kg",
+    "lost_mass": "kg",
+    "max_velocity": "m/s",
+    "wall_time": "s",
+}
+
+#: version of the checkpoint metadata (2: with the scenario, status, phase times and governing element)
+CHECKPOINT_FORMAT = 2
+
+
+def history_preamble(symmetry: str) -> list[str]:
+    """Comment lines at the top of ``history.csv``: the unit of every column and what the symmetry factor
+    applies to (read with ``pandas.read_csv(path, comment="#")`` or :func:`geocel.io.history.read_history`)."""
+    k = {"quarter": 4, "half": 2}.get(symmetry, 1)
+    units = ", ".join(f"{c} [{HISTORY_UNITS[c]}]" for c in HISTORY_COLUMNS)
+    return [
+        f"units: {units}",
+        f"symmetry: {symmetry} model; qb, qs, base_force, shaft_force and head_force are of the whole pile "
+        f"(forces of the model multiplied by {k}); energies, works, volumes and masses are of the modelled "
+        f"part (not multiplied); qs is the shaft force over the embedded shaft area; rows average the forces "
+        f"over the steps since the previous row",
+    ]
+
 
 #: arrays of the soil field saved in a checkpoint
 _STATE_ARRAYS = ("Vs", "Vcur", "mass", "stress", "state", "q", "hg", "v", "nmass", "modulus", "u_remap")
@@ -168,7 +232,7 @@ class Simulation:
         self.progress = progress
         self.write_fields = write_fields
         root = Path(out or o.directory or f"runs/{scenario.name}")
-        self.run_dir = RunDirectory(root)
+        self.run_dir = RunDirectory(root, create=False)  # made by run() (not for a refused restart)
         self.field: SoilField | None = None
         self.pile: PileBody | None = None
         self.contact: ContactCoupling | None = None
@@ -180,6 +244,13 @@ class Simulation:
         self._substeps = 1
         #: steps taken by the pile (more than the soil's when it is subcycled)
         self.pile_steps = 0
+        #: one line per event a user should know of (checkpoint fallbacks, allowed changes, restarts)
+        self.notes: list[str] = []
+        #: the scenario keys that differed from the checkpoint's on a restart (allowed ones)
+        self.restarts: list[dict] = []
+        self.diagnostic: dict | None = None
+        self._stop_requested = False
+        self._checkpoint_step = -1
 
     # --- state ---------------------------------------------------------------------------------------------
     def _snapshot(self) -> dict[str, np.ndarray]:
@@ -218,6 +289,11 @@ class Simulation:
             "wall_time": self.wall_time,
             "dt_min": self.dt_min,
             "pile_steps": self.pile_steps,
+            "timers": dict(f.timers),
+            "governing": self.governing,
+            "status": self.status,
+            "restarts": self.restarts,
+            "format": CHECKPOINT_FORMAT,
         }
         if self.contact is not None:
             c = self.contact
@@ -240,12 +316,27 @@ class Simulation:
         self.wall_time = meta["wall_time"]
         self.dt_min = meta.get("dt_min", self.dt_min)
         self.pile_steps = meta.get("pile_steps", self.pile_steps)
+        if "timers" in meta:  # (checkpoints before format 2: the phase times restart from zero)
+            f.timers.update(meta["timers"])
+        if meta.get("governing"):
+            self.governing = meta["governing"]
+        self.restarts = list(meta.get("restarts", []))
         if self.contact is not None and "contact" in meta:
             c = self.contact
             c.soil_work, c.friction_work, c.moved_volume = meta["contact"]
 
-    def checkpoint(self) -> None:
-        save_checkpoint(self.run_dir.checkpoint, self._snapshot(), self._meta())
+    def checkpoint(
+        self, arrays: dict[str, np.ndarray] | None = None, meta: dict | None = None
+    ) -> tuple[dict[str, np.ndarray], dict]:
+        """Write a checkpoint of the current state (or of ``arrays``/``meta``, a snapshot taken before) with
+        the resolved scenario; the previous checkpoint is kept until this one is written and verified.
+        Returns the snapshot written."""
+        arrays = self._snapshot() if arrays is None else arrays
+        meta = self._meta() if meta is None else meta
+        record = {**meta, "scenario": self._scenario_record, "fingerprint": self._fingerprint}
+        save_checkpoint(self.run_dir.checkpoint, arrays, record)
+        self._checkpoint_step = meta["step"]
+        return arrays, meta
 
     # --- measures ------------------------------------------------------------------------------------------
     def head_displacement(self) -> float:
@@ -268,13 +359,18 @@ class Simulation:
             ie += self.pile.strain_energy()
         return ke / ie if ie > 0 else float("nan")
 
+    def _energy_check_start(self) -> float:
+        """Head displacement (m) from which the quasi-static check counts: one diameter (and past the ramp),
+        at most half the target."""
+        start = max(self.scenario.loading.ramp, self.scenario.pile.diameter)
+        return min(start, 0.5 * self.target)
+
     def _energy_check_active(self) -> bool:
         """The quasi-static check starts once the pile has moved one diameter (and past the ramp): before, the
         internal energy is still near zero and any ratio is meaningless. Soil-only runs: always."""
         if not self.has_pile:
             return True
-        start = max(self.scenario.loading.ramp, self.scenario.pile.diameter)
-        return self.head_displacement() >= min(start, 0.5 * self.target)
+        return self.head_displacement() >= self._energy_check_start()
 
     def _progress_value(self) -> float:
         return self.head_displacement() if self.has_pile else self.field.time
@@ -406,6 +502,10 @@ class Simulation:
             "capped_soil_volume": f.capped_volume,
             "rule_counts": self.rule_counts,
             "diagnostic": self.diagnostic,
+            "quasi_static": _verdict(self.max_energy_ratio),
+            "energy_check_from_penetration": self._energy_check_start() if self.has_pile else 0.0,
+            "restarts": self.restarts,
+            "notes": self.notes,
         }
         if self.pile is not None:
             p = self.pile
@@ -481,11 +581,22 @@ class Simulation:
         return f.time >= self.duration * (1 - 1e-12)
 
     def run(
-        self, restart: bool = False, stop_after_steps: int | None = None, callback: Callable | None = None
+        self,
+        restart: bool = False,
+        stop_after_steps: int | None = None,
+        callback: Callable | None = None,
+        allow_changes: bool = False,
     ) -> dict:
         """Run to the end (``duration`` or penetration); ``stop_after_steps`` interrupts early (checkpoint
-        written, status ``interrupted``), ``restart`` continues from the run directory's checkpoint."""
+        written, status ``interrupted``), ``restart`` continues from the run directory's checkpoint (refused
+        with :class:`~geocel.config.fingerprint.ScenarioMismatchError` if the scenario differs from the
+        checkpoint's, except, with ``allow_changes``, in the keys that are safe to change; a finished run is
+        left as it is). Raises :class:`~geocel.io.checkpoint.CheckpointError` if no checkpoint can be read."""
         rd = self.run_dir
+        self._scenario_record = resolved_dict(self.scenario)
+        self._fingerprint = scenario_fingerprint(self._scenario_record)
+        ckpt = self._read_checkpoint(allow_changes) if restart else None
+        rd.check_writable()
         self.field = build_field(self.scenario)
         f = self.field
         if f.contact is not None:
@@ -497,19 +608,24 @@ class Simulation:
         self._n_fields = 0
         self.diagnostic = None
         self.dt_min = self._governing()
-        if restart:
-            if not rd.checkpoint.is_file():
-                raise FileNotFoundError(f"no checkpoint to restart from in {rd.root}")
-            arrays, meta = load_checkpoint(rd.checkpoint)
+        if ckpt is not None:
+            arrays, meta = ckpt
+            self._check_shapes(arrays)
             self._restore(arrays)
             self._apply_meta(meta)
-            truncate_after(rd.history_csv, self.field.step_count)
-            history = HistoryWriter(rd.history_csv, HISTORY_COLUMNS, append=True)
+            self._checkpoint_step = f.step_count
+            if self._done():  # finished before (and the target, if allowed to change, not moved beyond)
+                return self._already_finished()
+            if self.restarts and self.restarts[-1].get("step") == f.step_count:
+                rd.write_config(self.scenario)  # the allowed changes: config.toml describes the run again
+            history = self._reopen_history()
             self._pvd = PvdSeries(rd.pvd)
             self._pvd.drop_after(self.field.time)
         else:
             rd.write_config(self.scenario)
-            history = HistoryWriter(rd.history_csv, HISTORY_COLUMNS)
+            history = HistoryWriter(
+                rd.history_csv, HISTORY_COLUMNS, preamble=history_preamble(self.scenario.domain.symmetry)
+            )
             self._pvd = PvdSeries(rd.pvd)
         good = self._snapshot()
         good_meta = self._meta()
@@ -521,6 +637,7 @@ class Simulation:
         # parallel loops hand out one row at a time: the rows differ in work (the cylinder mask shortens
         # the outer ones), and equal blocks per thread left one core idle part of the time (≈ 5 % per step)
         chunk = numba.set_parallel_chunksize(1)
+        previous_handler = self._catch_sigint()
         try:
             while not self._done():
                 z = self.head_displacement()
@@ -542,54 +659,208 @@ class Simulation:
                 if np.isfinite(ratio) and self._energy_check_active():
                     self.max_energy_ratio = max(self.max_energy_ratio, ratio)
                     if self.ke_limit is not None and ratio > self.ke_limit:
-                        raise InstabilityError(
-                            f"kinetic/internal energy ratio {ratio:.3g} exceeds the limit "
-                            f"{self.ke_limit} at step {f.step_count}",
-                            {"quantity": "kinetic_energy", "step": f.step_count, "time": f.time},
-                        )
+                        self._energy_limit_crossed(ratio)
+                        break
                 if f.step_count % 200 == 0:
                     good = self._snapshot()
                     good_meta = self._meta()
                 if f.step_count % self.checkpoint_every == 0:
                     self.wall_time = _time.perf_counter() - t_start
-                    self.checkpoint()
+                    good, good_meta = self.checkpoint()
                 if callback is not None:
                     callback(self)
                 bar.update(self, steps_this_run)
                 if self.max_steps is not None and f.step_count >= self.max_steps:
                     self.status = "max_steps"
                     break
-                if stop_after_steps is not None and steps_this_run >= stop_after_steps:
+                if self._stop_requested or (
+                    stop_after_steps is not None and steps_this_run >= stop_after_steps
+                ):
                     self.status = "interrupted"
                     break
             else:
                 self.status = "finished"
             self.wall_time = _time.perf_counter() - t_start
-            if self.status == "finished":
+            if (
+                self.status == "finished"
+            ):  # (the schedules advanced, so a continuation does not repeat the row)
+                z = self.head_displacement()
+                self._due("history", z)
                 history.write(self._history_row(self.wall_time))
+                self._due("fields", z)
+                self._write_fields()
+            if self.status == "unstable":
                 self._write_fields()
             self.checkpoint()
         except InstabilityError as err:
+            # the state is broken part-way through a step: back to the last complete one kept
             self.status = "unstable"
-            self.diagnostic = {**err.diagnostic, "message": str(err)}
             wall = _time.perf_counter() - t_start
             self._restore(good)
             self._apply_meta(good_meta)
+            self.status = "unstable"
+            self.diagnostic = {
+                **err.diagnostic,
+                "message": str(err),
+                "last_complete_step": self.field.step_count,
+                "last_complete_time": self.field.time,
+            }
+            if self.has_pile:
+                self.diagnostic["last_complete_penetration"] = self.head_displacement()
             self.wall_time = wall  # the time spent, not the restored snapshot's
             self._write_fields()
             self.checkpoint()
         except KeyboardInterrupt:
+            # a second Ctrl-C (or one outside the main thread's handler): the step may be half done; keep the
+            # newest complete state, the one in memory or the checkpoint on disk
+            wall = _time.perf_counter() - t_start
+            self._restore(good)
+            self._apply_meta(good_meta)
             self.status = "interrupted"
-            self.wall_time = _time.perf_counter() - t_start
-            self.checkpoint()
+            self.wall_time = wall
+            if good_meta["step"] > self._checkpoint_step:
+                self.checkpoint()
+            self.notes.append(
+                f"stopped part-way through a step: kept the complete state of step {f.step_count}"
+            )
+            raise
+        except OSError as err:  # a full disk, a directory gone: what was written before stays readable
+            self.status = "failed"
+            kept = (
+                f"checkpoint of step {self._checkpoint_step}"
+                if self._checkpoint_step >= 0
+                else "no checkpoint"
+            )
+            raise OSError(
+                err.errno,
+                f"{err.strerror or err} while writing the outputs at step {f.step_count}; the {kept} and the "
+                "history up to it are intact: fix the cause and continue with --restart",
+                err.filename,
+            ) from err
+        except BaseException:
+            self.status = "failed"
             raise
         finally:
+            if previous_handler is not None:
+                signal.signal(signal.SIGINT, previous_handler)
             numba.set_parallel_chunksize(chunk)
             bar.update(self, steps_this_run, force=True)  # the final state, not the last throttled one
             bar.close()
             history.close()
-            rd.write_summary(self.summary())
+            try:
+                rd.write_summary(self.summary())
+            except OSError as err:  # (a full disk): the checkpoint and history written before stay valid
+                self.notes.append(f"could not write {rd.summary_json}: {err.strerror}")
         return self.summary()
+
+    # --- restart and interruption --------------------------------------------------------------------------
+    def _read_checkpoint(self, allow_changes: bool) -> tuple[dict[str, np.ndarray], dict]:
+        """The newest readable checkpoint of the run directory, checked against the scenario."""
+        rd = self.run_dir
+        if not rd.checkpoint.exists() and not rd.checkpoint_previous.exists():
+            raise CheckpointError(
+                f"no checkpoint to restart from in {rd.root}; run without --restart to start"
+            )
+        arrays, meta, used, notes = load_latest_checkpoint(rd.checkpoint)
+        self.notes += [f"{n}; restarting from {used.name} instead" for n in notes]
+        old = meta.get("scenario")
+        if old is None:  # (checkpoints before format 2): the resolved config of the run directory
+            try:
+                old = load_scenario(rd.config_toml)
+            except (OSError, ScenarioError) as err:
+                raise CheckpointError(
+                    f"checkpoint {used} records no scenario and {rd.config_toml} is unreadable: cannot check "
+                    "that the restart continues the same run"
+                ) from err
+        diffs = check_same_scenario(
+            old,
+            self._scenario_record,
+            what=f"the checkpoint in {rd.root} (step {meta.get('step')})",
+            allow_safe=allow_changes,
+            hint="restore the file, or start a new run with another --out",
+        )
+        if diffs:
+            changed = [str(d) for d in diffs]
+            self.notes.append("restart with changed " + "; ".join(changed))
+            meta.setdefault("restarts", []).append({"step": meta.get("step"), "changed": changed})
+        return arrays, meta
+
+    def _check_shapes(self, arrays: dict[str, np.ndarray]) -> None:
+        for name in _STATE_ARRAYS:
+            if name in arrays and arrays[name].shape != getattr(self.field, name).shape:
+                raise CheckpointError(
+                    f"checkpoint in {self.run_dir.root}: array {name} has shape {arrays[name].shape}, the "
+                    f"scenario's grid needs {getattr(self.field, name).shape}"
+                )
+
+    def _already_finished(self) -> dict:
+        """A restart of a finished run: nothing is run or rewritten (``summary.json`` only if unreadable)."""
+        self.status = "finished"
+        self.notes.append(f"the run in {self.run_dir.root} has already finished; nothing to do")
+        summary = self.summary()
+        try:
+            self.run_dir.read_summary()
+        except (OSError, ValueError):
+            self.run_dir.write_summary(summary)
+        return summary
+
+    def _reopen_history(self) -> HistoryWriter:
+        """The history for a restart: rows after the checkpoint dropped; an unreadable file is set aside."""
+        rd = self.run_dir
+        preamble = history_preamble(self.scenario.domain.symmetry)
+        try:
+            if rd.history_csv.is_file():
+                truncate_after(rd.history_csv, self.field.step_count)
+                return HistoryWriter(rd.history_csv, HISTORY_COLUMNS, append=True, preamble=preamble)
+        except ValueError as err:
+            broken = rd.history_csv.with_name("history.unreadable.csv")
+            rd.history_csv.replace(broken)
+            self.notes.append(
+                f"{err}: kept as {broken.name}; history.csv starts again at step {self.field.step_count}"
+            )
+        return HistoryWriter(rd.history_csv, HISTORY_COLUMNS, preamble=preamble)
+
+    def _catch_sigint(self):
+        """First Ctrl-C: finish the step, checkpoint, stop (status ``interrupted``); a second one interrupts
+        at once. Only in the main thread (signal handlers cannot be set elsewhere, e.g. in dask workers)."""
+        if threading.current_thread() is not threading.main_thread():
+            return None
+        self._stop_requested = False
+
+        def handler(signum, frame):
+            if self._stop_requested:
+                raise KeyboardInterrupt
+            self._stop_requested = True
+
+        try:
+            return signal.signal(signal.SIGINT, handler)
+        except ValueError:
+            return None
+
+    def _energy_limit_crossed(self, ratio: float) -> None:
+        """``[solver] kinetic_energy_limit`` crossed after a complete step: stop there (that step is the last
+        complete state, checkpointed) and say where the soil moves fastest."""
+        f = self.field
+        g = f.grid
+        speed = np.linalg.norm(np.nan_to_num(f.v), axis=-1)
+        i, j, k = (int(t) for t in np.unravel_index(np.argmax(speed), speed.shape))
+        where = (float(g.x[i]), float(g.y[j]), float(g.z[k]))
+        self.status = "unstable"
+        self.diagnostic = {
+            "quantity": "kinetic_energy",
+            "step": f.step_count,
+            "time": f.time,
+            "last_complete_step": f.step_count,
+            "last_complete_time": f.time,
+            "index": [i, j, k],
+            "position_m": where,
+            "message": (
+                f"kinetic/internal energy ratio {ratio:.3g} exceeds the limit {self.ke_limit} at step "
+                f"{f.step_count} (t = {f.time:.6g} s); fastest soil node at {tuple(round(c, 4) for c in where)} m"
+            ),
+        }
+        if self.has_pile:
+            self.diagnostic["last_complete_penetration"] = self.head_displacement()
 
     def _due(self, what: str, z: float) -> bool:
         """Whether the history row / field snapshot is due, and if so advance its counter. The counter n is the
