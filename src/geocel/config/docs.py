@@ -22,7 +22,7 @@ from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
 from . import scenario as sc
-from .materials import PRESETS, Elastic, Hypoplastic, MohrCoulomb
+from .materials import PRESETS, Elastic, Hypoplastic, MohrCoulomb, Tresca
 
 __all__ = ["field_unit", "render_scenario_reference"]
 
@@ -198,13 +198,19 @@ def _soil_section() -> list[str]:
         "",
         "| key | type | unit | default | allowed | meaning |",
         "|---|---|---|---|---|---|",
-        '| `model` | `"hypoplastic"` \\| `"mohr-coulomb"` \\| `"elastic"` |  | `"hypoplastic"` (or the '
+        '| `model` | `"hypoplastic"` \\| `"mohr-coulomb"` \\| `"tresca"` \\| `"elastic"` |  | `"hypoplastic"` (or the '
         "preset's) |  | constitutive model |",
         f"| `preset` | {preset_names} |  | (none) |  | named parameter set |",
     ]
     out += _table(sc.Soil, skip=("material", "layers"))[2:]
     out += [""]
-    for name, model in (("hypoplastic", Hypoplastic), ("mohr-coulomb", MohrCoulomb), ("elastic", Elastic)):
+    models = (
+        ("hypoplastic", Hypoplastic),
+        ("mohr-coulomb", MohrCoulomb),
+        ("tresca", Tresca),
+        ("elastic", Elastic),
+    )
+    for name, model in models:
         out += [f'### `model = "{name}"`', "", _doc(model), "", *_table(model, skip=("model",)), ""]
     out += ["### Presets (`geocel presets`)", ""]
     for name, values in PRESETS.items():
