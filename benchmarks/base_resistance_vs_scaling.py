@@ -43,6 +43,7 @@ def run(
         radius=4.0, soil_depth=6.0, void_height=0.6, fine_depth=penetration + 1.5, max_size=0.8
     )
     d["pile"]["type"] = kind
+    d["pile"]["length"] = penetration + 2.0  # the pile must fit the small domain
     d["scaling"]["mass_gravity"] = S
     d["name"] = f"{kind}-S{S:g}"
     sim = Simulation(scenario_from_dict(d), out=root / d["name"], progress=False, write_fields=False)
