@@ -94,6 +94,27 @@ def _layer_position(z, layer_z):
     return lo, (z - layer_z[lo]) / (layer_z[lo + 1] - layer_z[lo])
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def _record(out_node, out_layer, row, part, fx, fy, fz, fr, tied, vpx, vpy, vpz, lo, hi, w):
+    """Add a contact force (fx, fy, fz) on the soil (N) to the pile's outputs of node plane ``row``: base or
+    shaft force on the pile (−f) and its power on the pile's velocity; per level (shared linearly between
+    levels lo and hi with weight w of hi) the vertical and radial force (``fr`` = −f·e_r) and the soil
+    mass tied to the level's vertical motion."""
+    o = 0 if part == BASE else 3
+    out_node[row, o] -= fx
+    out_node[row, o + 1] -= fy
+    out_node[row, o + 2] -= fz
+    out_node[row, 6] += fx * vpx + fy * vpy + fz * vpz
+    c2 = 0 if part == SHAFT else 2
+    out_layer[row, lo, c2] -= (1.0 - w) * fz
+    out_layer[row, lo, c2 + 1] += (1.0 - w) * fr
+    out_layer[row, lo, 4 + c2 // 2] += (1.0 - w) * tied
+    if hi != lo:
+        out_layer[row, hi, c2] -= w * fz
+        out_layer[row, hi, c2 + 1] += w * fr
+        out_layer[row, hi, 4 + c2 // 2] += w * tied
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
 def project_contact(
     x, y, z, i0, i1, j0, j1, k0, k1, nmass, v, fix, mtiny, cx, cy, R, za, zs, band, band_base, mu,
@@ -169,21 +190,9 @@ def project_contact(
                 fx = c * (nvx - ox)  # force on the soil node
                 fy = c * (nvy - oy)
                 fz = c * (nvz - oz)
-                o = 0 if part == BASE else 3
-                out_node[ii, o] -= fx
-                out_node[ii, o + 1] -= fy
-                out_node[ii, o + 2] -= fz
-                out_node[ii, 6] += fx * vpx + fy * vpy + fz * vpz
                 fr = -(fx * er_x + fy * er_y)
-                c2 = 0 if part == SHAFT else 2
                 ma = 0.0 if fix[i, j, k, 2] else (m if s == 1.0 else m * nz * nz)
-                out_layer[ii, lo, c2] -= (1.0 - w) * fz
-                out_layer[ii, lo, c2 + 1] += (1.0 - w) * fr
-                out_layer[ii, lo, 4 + c2 // 2] += (1.0 - w) * ma
-                if hi != lo:
-                    out_layer[ii, hi, c2] -= w * fz
-                    out_layer[ii, hi, c2 + 1] += w * fr
-                    out_layer[ii, hi, 4 + c2 // 2] += w * ma
+                _record(out_node, out_layer, ii, part, fx, fy, fz, fr, ma, vpx, vpy, vpz, lo, hi, w)
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
@@ -328,26 +337,13 @@ def project_edges(
             fx /= dt
             fy /= dt
             fz /= dt
-            o = 0 if part == BASE else 3
-            row = ia - i0
-            out_node[row, o] -= fx
-            out_node[row, o + 1] -= fy
-            out_node[row, o + 2] -= fz
-            out_node[row, 6] += fx * vpx + fy * vpy + fz * vpz
             dxp = px - cx
             dyp = py - cy
             rp = np.sqrt(dxp * dxp + dyp * dyp)
             fr = -(fx * dxp + fy * dyp) / rp if rp > 1e-14 * R else 0.0
-            c2 = 0 if part == SHAFT else 2
             # the soil mass tied to the pile's vertical motion by this constraint: 1/w (sticking) or n_z²/w
             ma_t = (1.0 if st == 1.0 else nz_ * nz_) / w if _sweep == 0 else 0.0
-            out_layer[row, lo, c2] -= (1.0 - wl) * fz
-            out_layer[row, lo, c2 + 1] += (1.0 - wl) * fr
-            out_layer[row, lo, 4 + c2 // 2] += (1.0 - wl) * ma_t
-            if hi != lo:
-                out_layer[row, hi, c2] -= wl * fz
-                out_layer[row, hi, c2 + 1] += wl * fr
-                out_layer[row, hi, 4 + c2 // 2] += wl * ma_t
+            _record(out_node, out_layer, ia - i0, part, fx, fy, fz, fr, ma_t, vpx, vpy, vpz, lo, hi, wl)
     return ne
 
 
