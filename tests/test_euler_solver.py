@@ -225,7 +225,7 @@ def test_rigid_rotation_keeps_the_stress_invariants():
     shape = grid.shape
     stress = np.zeros(shape + (6,))
     stress[...] = np.array([-100e3, -50e3, -30e3, 10e3, -5e3, 8e3])
-    state = np.zeros(shape + (14,))  # e, then the hourglass stresses and the tangent shear modulus
+    state = np.zeros(shape + (13,))  # e, then the hourglass stresses
     state[..., 0] = 0.6
     Vs = vol.copy()
     mass = 1600.0 * vol
@@ -416,7 +416,7 @@ def _hourglass_force(amp, nsteps, rho, mode=0, direction=0, dt=1e-4, shape=(0.2,
     E, nu = 50e6, 0.3
     M = E * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
     G = 0.375 * M  # the modes' shear modulus: the unloading G of the P-wave modulus M at ν = 0.2
-    state = np.zeros(cells + (14,))
+    state = np.zeros(cells + (13,))
     state[..., 0] = 0.6
     Vs = vol.copy()
     mass = rho * vol

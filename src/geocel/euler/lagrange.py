@@ -333,8 +333,8 @@ def update_cells(
     what the soil's strength allows at both of the cell's sub-points (:func:`subpoint_limit`, the strength
     cone q ≤ ``mf`` p + ``cf`` of the soil model): free along the cone, bounded across it, no coefficient.
     There is no density or rate in it (MGS- and velocity-invariant). ``kappa_s`` multiplies it (1:
-    physical). The 12 hourglass stresses (per unit soil volume, Pa) and the modes' shear modulus are kept in
-    ``state[..., hoff:hoff + 13]`` so the remap carries them with the soil. A small viscous part
+    physical). The 12 hourglass stresses (per unit soil volume, Pa) are kept in ``state[..., hoff:hoff + 12]``
+    so the remap carries them with the soil. A small viscous part
     κ ρ c V^{2/3}/8 (``kappa``) damps the modes' ringing.
     """
     nx, ny, nz = Vs.shape
@@ -397,7 +397,6 @@ def update_cells(
                     # shear modulus, from the P-wave modulus M with ν = 0.2), as the sub-points of a fully
                     # integrated cell that unload would show
                     gt = G_FROM_M * M
-                    st2[c, hoff + 12] = gt
                     # hourglass resistance, stored per unit cell mass (multiplied by the current mass when the
                     # forces are gathered): viscous κ ρ c V^{2/3}/8 · q_α plus the physical stresses
                     a23 = vol ** (2.0 / 3.0) / vol  # V^{2/3} per unit volume

@@ -17,7 +17,6 @@ from numba import njit, prange
 
 from ..config.materials import Elastic, Hypoplastic, MohrCoulomb, Tresca
 from ..euler.lagrange import (
-    G_FROM_M,
     PHI_MIN,
     advance_nodes,
     characteristic_length,
@@ -37,7 +36,7 @@ E_MIN, E_MAX = 0.1, 3.0
 
 #: components of the hourglass control kept after the material state: the generalised hourglass stresses
 #: (4 modes × 3 directions, per unit soil volume, Pa) and the tangent shear modulus G_t (Pa) that drives them
-HOURGLASS_STATE = 13
+HOURGLASS_STATE = 12
 ENERGY_KEYS = (
     "kinetic",
     "internal",
@@ -236,8 +235,6 @@ class SoilField:
         self.mass_tiny = 1e-9 * full_node
         self.initial_mass = float(self.mass.sum())
         self.dt = self.settings.safety_factor * self.stable_time_step()
-        # the hourglass modes' shear modulus (each step sets it from the updated state)
-        self.state[..., self.nstate + 12] = G_FROM_M * self._modulus_now()
 
     def _modulus_now(self) -> np.ndarray:
         """P-wave modulus M of every cell's current state (Pa; 0 where there is no soil)."""
