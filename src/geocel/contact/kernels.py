@@ -1,22 +1,25 @@
 """Eulerian–Lagrangian contact between the soil on the fixed grid and an axisymmetric pile surface.
 
 Enforcement is kinematic (velocity projection, DESIGN.md §4.5), applied to the trial velocities v^{n+½} of
-the Lagrangian phase, where the pile surface actually is (no contact distance):
+the Lagrangian phase. Two formulations (``[contact] formulation``, :class:`~geocel.contact.coupling.ContactCoupling`):
 
-* where the surface crosses a grid edge between a node outside and a node inside the pile, the soil there
-  moves with the trilinear interpolation of the two nodes; :func:`project_edges` enforces Signorini's
-  condition (no approach) and Coulomb friction at that point, with impulses shared between the two nodes
-  by the interpolation weights. The node inside the pile is a fictitious node that continues the soil's
-  velocity field into the pile; a node below the base follows the pile only as far as the base is near it,
-  so a punch acts with its true size and depth (a former contact band of one cell below the base and half a
-  cell around the shaft made it act up to a cell larger and deeper: +20–40 % on Shield's punch limit);
-* nodes inside the pile that no crossing edge reaches are projected on their own (:func:`project_contact`
-  with zero distance): with n the outward surface normal at the nearest surface point and v_r = v − v_pile,
-  an approaching node (v_r·n < 0) gets Δv_n = −v_r·n, a separating one is left free; Coulomb friction
-  removes the tangential relative velocity up to |Δv_t| ≤ μ Δv_n;
-* the contact impulse J on the soil is the force J/Δt; the pile receives −J/Δt (equal and opposite, so
-  momentum is conserved exactly). Points whose nearest surface point lies on the base (or the cone) count as
-  base contact, the others as shaft contact.
+* **band** (default), :func:`project_contact`: a soil node with mass whose signed distance d to the pile
+  surface (negative inside) is at most ``band`` (half a cell) beside the shaft or ``band_base`` (one cell)
+  where the nearest surface point lies on the base is projected: with n the outward normal there and
+  v_r = v − v_pile, an approaching node (v_r·n < 0) gets Δv_n = −v_r·n, a separating one is left free, and
+  Coulomb friction removes the tangential relative velocity up to |Δv_t| ≤ μ Δv_n. The node plane under the
+  cell that holds the base moves with the pile, so a punch acts up to a cell deeper and, around its rim, up
+  to a cell wider than it is (Shield's punch limit +21 % at 8 cells per radius);
+* **edge**, :func:`project_edges`: where the surface crosses a grid edge between a node outside and a node
+  inside the pile, the soil there moves with the interpolation of the two nodes; Signorini's condition and
+  Coulomb friction are enforced at that point with impulses shared by the interpolation weights, so the
+  pile acts where it is (no contact distance). Nodes inside the pile that no crossing edge reaches get the
+  band projection with zero distance. Experimental: see docs/numerics.md ("Contact") for why it is not the
+  default.
+
+In both, the contact impulse J on the soil is the force J/Δt and the pile receives −J/Δt (equal and
+opposite, so momentum is conserved exactly); points whose nearest surface point lies on the base (or the
+cone) count as base contact, the others as shaft contact.
 
 The pile surface in the (r, z) half-plane of its axis (cx, cy) is a convex profile: the shaft r = R above the
 shoulder z_s, and a base segment from the apex (0, z_a) to (R, z_s) (flat base: z_a = z_s). Its velocity is
