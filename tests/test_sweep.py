@@ -206,6 +206,27 @@ def test_the_example_study_expands_and_validates():
     assert len(s.cases()) == 4 and s.colour_by in s.varied
 
 
+def test_the_docs_list_every_column_and_show_the_errors_the_code_gives():
+    from geocel.sweep import COLUMNS
+
+    docs = (Path(__file__).resolve().parents[1] / "docs" / "sweeps.md").read_text(encoding="utf-8")
+    for column in COLUMNS:
+        assert f"| `{column}` |" in docs, column
+    base = {
+        "preset": "deeks-white",
+        "resolution": "demo",
+        "set": {"loading.velocity": 0.5, "loading.penetration": 1.0},
+    }
+    for vary in (
+        {"contact.friction": [0.2, 5.0], "scaling.mass_gravity": [10, 30]},
+        {"contact.fricton": [0.2]},
+        {"scaling.mass_gravity": {"start": 10, "stop": 30, "step": 0}},
+    ):
+        with pytest.raises(StudyError) as err:
+            Study.from_dict({"base": base, "vary": vary}, source="study.toml")
+        assert f"error: {err.value}" in docs
+
+
 def test_the_command_line_reports_a_bad_study_in_one_line_before_any_cluster(tmp_path, monkeypatch):
     import geocel.sweep.run as sr
 
@@ -319,3 +340,26 @@ def test_a_case_directory_of_another_scenario_is_refused_naming_the_keys(tmp_pat
     with pytest.raises(ValueError, match=r"\[loading\].velocity 0.25 → 0.5.*--rerun"):
         plan_study(s, tmp_path)
     assert plan_study(s, tmp_path, rerun=True).states == {case.name: "replace"}
+
+
+def test_run_study_on_local_worker_processes_returns_the_table(tmp_path):
+    """The default path: a local cluster of worker processes (the scenarios travel to them pickled)."""
+    from geocel.sweep import run_study
+
+    study = Study.from_dict(
+        _study(
+            name="procs",
+            mode="zip",
+            depths=[0.12],
+            vary={"contact.friction": [0.1, 0.3], "scaling.mass_gravity": [100, 300]},
+        ),
+        source="procs.toml",
+    )
+    table = run_study(study, tmp_path / "out", workers=2, progress=False)
+    assert table.attrs["failed"] == {}
+    assert list(table["case"]) == ["friction=0.1_mass-gravity=100", "friction=0.3_mass-gravity=300"]
+    assert (table["status"] == "finished").all() and (table["qb_at_0.12m_MPa"] > 0).all()
+    assert table["steps"].iloc[0] > table["steps"].iloc[1]  # S = 300: a longer time step
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(tmp_path / "out" / "results.parquet"), table, check_dtype=False
+    )

@@ -388,6 +388,10 @@ def sweep(
     with user_errors():
         if workers is not None and workers < 1:
             raise ValueError(f"--workers = {workers}: must be ≥ 1")
+        if workers is not None and scheduler is not None:
+            raise ValueError(
+                "--workers: only for the local cluster; with --scheduler the cluster's workers run"
+            )
         study = Study.from_toml(study_file)
         out = out if out is not None else Path("sweeps") / study.name
         plan = plan_study(study, out, rerun)

@@ -113,19 +113,19 @@ def run_study(
     out.mkdir(parents=True, exist_ok=True)
     cases = study.cases()
     console = console or Console()
-    order = sorted(cases, key=lambda c: -_expected_cost(c.scenario))
+    # finished cases are read here (no task, no cluster when nothing is left); the longest others first
+    done = [c for c in cases if plan.states.get(c.name) == "finished"]
+    order = sorted((c for c in cases if c not in done), key=lambda c: -_expected_cost(c.scenario))
+    root = str(out.resolve())  # absolute: the workers of a remote cluster (SLURM) start elsewhere
     t0 = time.perf_counter()
-    with (
-        Progress(
-            TextColumn(f"[bold]sweep {escape(study.name)}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            console=console,
-            disable=not progress,
-        ) as bar,
-        dask_client(scheduler, workers, len(cases), processes) as (client, threads),
-    ):
+    with Progress(
+        TextColumn(f"[bold]sweep {escape(study.name)}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=console,
+        disable=not progress,
+    ) as bar:
         task = bar.add_task("cases", total=len(cases))
 
         def report(name: str, s: dict | None, why: str | None) -> None:
@@ -143,11 +143,17 @@ def run_study(
                 bar.console.print(f"  {escape(name)}: {escape(text)}", soft_wrap=True)
             bar.advance(task)
 
-        # an absolute path: the workers of a remote cluster (SLURM) start elsewhere on the shared filesystem
-        root = str(out.resolve())
-        tasks = {c.name: (run_case, (c.name, c.scenario, root, threads, plan.rerun)) for c in order}
-        priorities = {c.name: len(order) - i for i, c in enumerate(order)}
-        summaries, failed = run_tasks(client, tasks, priorities, report)
+        summaries: dict[str, dict] = {}
+        failed: dict[str, str] = {}
+        for c in done:
+            summaries[c.name] = s = run_case(c.name, c.scenario, root)
+            report(c.name, s, None)
+        if order:
+            with dask_client(scheduler, workers, len(order), processes) as (client, threads):
+                tasks = {c.name: (run_case, (c.name, c.scenario, root, threads, plan.rerun)) for c in order}
+                priorities = {c.name: len(order) - i for i, c in enumerate(order)}
+                ran, failed = run_tasks(client, tasks, priorities, report)
+            summaries.update(ran)
     wall = time.perf_counter() - t0
     table = study_table(study, out, summaries, failed)
     table.attrs.update(failed=failed, wall_time=wall)
@@ -221,7 +227,8 @@ def _num(value: Any) -> float:
 
 def plot_study(study: Study, curves: dict[str, pd.DataFrame], table: pd.DataFrame, path: str | Path) -> Path:
     """q_b against tip depth of every case with a history, coloured by ``study.colour_by`` (a colour bar for
-    numbers, a legend otherwise); cases that did not finish dashed."""
+    numbers, a legend otherwise), cases of one colour in different line styles, those that did not finish
+    faint; with at most 12 cases the legend names each."""
     from matplotlib import colormaps
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
@@ -246,16 +253,25 @@ def plot_study(study: Study, curves: dict[str, pd.DataFrame], table: pd.DataFram
         colour = {n: cmap(levels.index(str(v)) % 10) for n, v in values.items()}
         for i, level in enumerate(levels):
             ax.plot([], [], color=cmap(i % 10), label=f"{key} = {level}")
+    few = len(curves) <= 12  # few enough to name every case in the legend
+    styles = ("-", "--", ":", "-.")
+    same: dict[str, int] = {}  # cases of one colour told apart by the line style
     for name, h in curves.items():
         done = by_case.loc[name, "status"] == "finished"
-        ax.plot(h["qb"] / 1e6, h["tip_depth"], color=colour[name], ls="-" if done else "--", lw=1.5)
+        k = same[str(values[name])] = same.get(str(values[name]), -1) + 1
+        label = (name if done else f"{name} (not finished)") if few else None
+        ax.plot(h["qb"] / 1e6, h["tip_depth"], color=colour[name], ls=styles[k % 4], lw=1.5 if done else 0.8,
+                alpha=1.0 if done else 0.5, label=label)  # fmt: skip
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=7)
     ax.set_xlabel("base resistance $q_b$ (MPa)")
     ax.set_ylabel("pile tip depth (m)")
     ax.invert_yaxis()
     ax.grid(alpha=0.3)
-    ax.set_title(f"{study.name}: {len(curves)} cases (dashed: not finished)")
+    unfinished = any(by_case.loc[name, "status"] != "finished" for name in curves)
+    ax.set_title(
+        f"{study.name}: q_b of {len(curves)} cases" + (" (faint: not finished)" if unfinished else "")
+    )
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path, dpi=120)
