@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import copy
 import json
+import tomllib
 from pathlib import Path
 
 import pandas as pd
@@ -225,6 +226,10 @@ def test_the_docs_list_every_column_and_show_the_errors_the_code_gives():
         with pytest.raises(StudyError) as err:
             Study.from_dict({"base": base, "vary": vary}, source="study.toml")
         assert f"error: {err.value}" in docs
+    example = docs.split("## The study file")[1].split("```toml")[1].split("```")[0]
+    s = Study.from_dict(tomllib.loads(example), source="example")
+    assert len(s.cases()) == 2 * 3 * 2 and s.varied[-1] == "loading.velocity"
+    assert s.cases()[-1].scenario.loading.velocity == 0.25 and s.cases()[0].scenario.loading.velocity == 0.5
 
 
 def test_the_command_line_reports_a_bad_study_in_one_line_before_any_cluster(tmp_path, monkeypatch):

@@ -375,7 +375,7 @@ def sweep(
     rerun: Annotated[
         bool,
         typer.Option(
-            help="a case directory holding another scenario (the base or [base.set] edited) is moved to "
+            help="a case directory holding another scenario (the base or its set keys edited) is moved to "
             "<case>.replaced and run again, instead of stopping"
         ),
     ] = False,

@@ -358,6 +358,8 @@ class Study:
 
             # the resolution's fine zone follows the penetration (set or varied), as in `geocel preset`
             pen = params.get("loading.penetration", b["set"].get("loading.penetration"))
+            if isinstance(pen, bool) or not isinstance(pen, int | float):
+                pen = None  # (a bad value is then named by the scenario's validation)
             try:
                 data = preset_dict(b["preset"], resolution=b["resolution"], penetration=pen)
             except ValueError as err:
