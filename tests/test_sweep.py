@@ -260,7 +260,7 @@ def cluster():
     """A dask cluster in this process (one single-threaded worker): the run counter below sees its runs."""
     from dask.distributed import LocalCluster
 
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as c:
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as c:
         yield c
 
 

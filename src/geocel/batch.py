@@ -126,7 +126,8 @@ def dask_client(
         threads = None
     else:
         n = workers or max(1, min(tasks, os.cpu_count() or 1))
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=None)
+        # the dashboard on a free port (None means the default 8787 here, which a second cluster finds taken)
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=":0")
         client = Client(cluster)
         threads = 1
     try:
