@@ -369,22 +369,46 @@ def test_remap_of_an_incompressible_radial_flow_keeps_soil_volume_and_density():
     assert m2 - m20 == pytest.approx(2 * C * V0 * n * dt, rel=0.02)
 
 
-def test_collapsing_cylinder_conserves_mass_through_the_remap():
-    """A Mohr–Coulomb soil cylinder (r 0.5 m, h 1 m) standing free collapses under gravity, remapped every
-    step: it spreads, its mass is conserved to round-off and the energy balances within 2 %."""
+def _collapse_field(S=1.0):
+    """A Mohr–Coulomb soil cylinder (r 0.5 m, h 1 m) standing free in a 1.2 m container, remapped every step."""
     g = AxisymmetricGrid(0.1 * np.arange(13), np.concatenate([np.linspace(-1.0, 0.0, 11), [0.1, 0.2]]))
-    f = AxisymmetricField(g, MohrCoulomb(youngs_modulus=5e6, poisson_ratio=0.3, friction_angle=30.0),
+    f = AxisymmetricField(g, MohrCoulomb(youngs_modulus=5e6, poisson_ratio=0.3, friction_angle=30.0), scaling=S,
                           settings=SolverSettings(remap_courant=0.0))  # fmt: skip
     f.fill_below(0.0)
     f.Vs[g.rc > 0.5] = 0.0
     f.geostatic([(0.0, 0.65)], k0=0.5)
-    r0 = (f.mass.sum(axis=1) * g.rc).sum() / f.mass.sum()
+    return f
+
+
+def _mean_radius(f):
+    return (f.mass.sum(axis=1) * f.grid.rc).sum() / f.mass.sum()
+
+
+def test_collapsing_cylinder_conserves_mass_through_the_remap():
+    """It collapses under gravity and spreads; its mass is conserved to round-off and the energy balances
+    within 2 %."""
+    f = _collapse_field()
+    r0 = _mean_radius(f)
     for _ in range(400):
         f.step()
-    r1 = (f.mass.sum(axis=1) * g.rc).sum() / f.mass.sum()
-    assert r1 - r0 > 0.01  # it spread
+    assert _mean_radius(f) - r0 > 0.01  # it spread
     assert abs(f.mass_error()) < 1e-12
     assert abs(f.energy_balance_error()) < 0.02 * f.energy["external_work"]
+
+
+def test_mgs_collapse_reproduces_the_motion_on_a_stretched_time_axis():
+    """MGS S = 100 (density × S, gravity ÷ S) with Δt × 10: the same motion on a time axis stretched by 10,
+    to round-off (the hourglass control, the bulk viscosity and the remap are S-invariant)."""
+    f1, f100 = _collapse_field(1.0), _collapse_field(100.0)
+    r0 = _mean_radius(f1)
+    dt1 = 0.8 * f1.dt
+    for _ in range(300):
+        f1.step(dt=dt1)
+        f100.step(dt=10.0 * dt1)
+    d1, d100 = _mean_radius(f1) - r0, _mean_radius(f100) - r0
+    assert d1 > 0.005
+    assert d100 == pytest.approx(d1, rel=1e-6)
+    np.testing.assert_allclose(f100.stress, f1.stress, rtol=1e-6, atol=1e-6 * np.abs(f1.stress).max())
 
 
 # --------------------------------------------------------------------------- rigid punch
