@@ -1,0 +1,310 @@
+"""Lagrangian phase of the axisymmetric (r–z) soil step on the fixed, rectangular grid (issue 17).
+
+The same central-difference step as :mod:`geocel.euler.lagrange`, with 4-node cells in the r–z plane:
+
+* **Volumes per radian.** A cell of size h_r × h_z at centre radius r_c has V = r_c h_r h_z (exact for the
+  rectangle); masses, forces, energies are per radian (× 2π for the whole body).
+* **Strain rate** at the cell centre (one-point): with ξ_I, η_I = ±1 the corners' signs in r and z,
+  ∂v/∂r = Σ ξ_I v_I/(2h_r), ∂v/∂z = Σ η_I v_I/(2h_z), and the hoop rate D_θθ = v_r(centre)/r_c =
+  Σ v_rI/(4 r_c). It is exact for a uniform radial expansion v_r = a r (D_rr = D_θθ = a) in every cell,
+  the one on the axis included, and never divides by r = 0.
+* **Mapping to the soil models' 3D 6-vector** (11, 22, 33, 12, 13, 23): 1 = r, 2 = θ (hoop), 3 = z, so
+  D = (D_rr, D_θθ, D_zz, 0, D_rz, 0) and the spin is W_13 = ½(∂v_r/∂z − ∂v_z/∂r) only. The r–z plane is
+  the x–z plane of a 3D quarter model at y = 0; σ_33 stays the vertical stress (gravity, geostatic state,
+  the intergranular strain's "vertical" start) and the same model kernels
+  (:func:`geocel.materials.kernels.cell_update`) run unchanged.
+* **Nodal forces: the volume-weighted (consistent) form**, f_I = −∫ Bᵀσ r dA with one point:
+  f_rI = −V_s (σ_rr ∂N_I/∂r + σ_rz ∂N_I/∂z + σ_θθ N_I/r_c), f_zI = −V_s (σ_rz ∂N_I/∂r + σ_zz ∂N_I/∂z),
+  V_s = φV. It is the exact transpose of the strain rate (the power Σ f·v equals −Σ V_s σ:D, so the energy
+  balance and momentum are exact), and the hoop term V_s σ_θθ N_I/r_c = φ h_r h_z σ_θθ/4 has no 1/r: it
+  is stable at the axis. Chosen over the area-weighted form (Wilkins), which preserves spherical symmetry
+  but not the energy identity nor the lumped mass Σ m_cell/4 that the remap's dual-grid momentum keeps.
+  A state with σ_rr = σ_θθ uniform in r (the geostatic K0 state) is in exact nodal equilibrium on any
+  graded grid, so a column at rest stays at rest.
+* **Hourglass**: one mode per direction, h_I = ξ_I η_I (v_d = (q_d/4) ξη, invisible to the centre strain
+  and to the hoop rate). Its stiffness is the strain energy of the mode with assumed strains, the 2D
+  analogue of :func:`geocel.euler.lagrange.hourglass_stiffness`: the mode's normal strain
+  ε_dd = q_d η/(2h_d) (its bending) kept at the isochoric E = 3G, its parasitic shear dropped, so
+  K_d = 4 G V/h_d² and Q̇_d = K_d q_d/16; G = 3M/8 from the soil's current P-wave modulus (as in 3D); the
+  mode's stress variation ±6 h_d Q_d/V is kept within the strength cone at both sub-points
+  (:func:`geocel.euler.lagrange.subpoint_limit`, uniaxial pattern). The hoop strain the mode has inside
+  the cell, (q/4)ξη/r, is not stiffened (it vanishes at the centre; away from the axis it is of relative
+  order (h_r/r)²). The two generalised stresses (per unit soil volume, Pa) are kept after the material
+  state, so the remap carries them. A small viscous part κ ρ c r_c √(h_r h_z)/4 per unit mode velocity.
+* Bulk viscosity on tr D = D_rr + D_θθ + D_zz, as in 3D.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..materials.kernels import cell_update
+from ..materials.tensor import KERNEL_OPTIONS
+from .lagrange import G_FROM_M, PHI_MIN, subpoint_limit
+
+#: components of the hourglass control kept after the material state (generalised stresses of the r and z
+#: modes, per unit soil volume, Pa)
+HOURGLASS_STATE_RZ = 2
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def characteristic_length_rz(hr, hz):
+    """L_e = 1/√(h_r⁻² + h_z⁻²): with it, Δt = L_e/c bounds the highest frequency of the assembled
+    one-point quads with lumped mass, hourglass stiffness and hoop term included. The hoop strain v̄_r/r_c
+    needs no term of its own: the critical step of the assembled operator, computed from its eigenvalues on
+    graded grids with cells next to the axis of aspect 1/5 to 5 and ν up to 0.49, is 1.03–2.0 times this
+    bound (``tests/test_axisymmetric.py``); a term (2r_c)⁻² would halve the step near the axis for nothing."""
+    return 1.0 / np.sqrt(1.0 / (hr * hr) + 1.0 / (hz * hz))
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def node_mass_rz(mass, out):
+    """Lumped nodal mass: a quarter of each adjacent cell's (per-radian) soil mass."""
+    nr, nz = mass.shape
+    for i in prange(nr + 1):
+        for k in range(nz + 1):
+            s = 0.0
+            for ci in range(max(i - 1, 0), min(i + 1, nr)):
+                for ck in range(max(k - 1, 0), min(k + 1, nz)):
+                    s += mass[ci, ck]
+            out[i, k] = 0.25 * s
+
+
+@njit(**KERNEL_OPTIONS)
+def node_force_rz(i, k, gr_, gz_, nr_, Vs, mass, stress, q, hg):
+    """Stress, bulk-viscosity and hourglass forces (per radian) on node (i, k), gathered from its ≤ 4 cells.
+
+    ``gr_`` = 1/(2h_r), ``gz_`` = 1/(2h_z) per cell (the shape-function gradient factors) and ``nr_`` =
+    1/(4 r_c) (N_I/r at the centre). Returns (f_σ, f_q, f_hg) as three 2-tuples (r, z)."""
+    fr = 0.0
+    fz = 0.0
+    pr = 0.0
+    pz = 0.0
+    hr_ = 0.0
+    hz_ = 0.0
+    ncr, ncz = Vs.shape
+    for ci in range(max(i - 1, 0), min(i + 1, ncr)):
+        xi = 1.0 if ci < i else -1.0
+        gr = xi * gr_[ci]
+        n = nr_[ci]
+        for ck in range(max(k - 1, 0), min(k + 1, ncz)):
+            vs = Vs[ci, ck]
+            eta = 1.0 if ck < k else -1.0
+            gz = eta * gz_[ck]
+            srr = stress[ci, ck, 0]
+            stt = stress[ci, ck, 1]
+            szz = stress[ci, ck, 2]
+            srz = stress[ci, ck, 4]
+            fr -= vs * (srr * gr + srz * gz + stt * n)
+            fz -= vs * (srz * gr + szz * gz)
+            pq = vs * q[ci, ck]  # the viscous pressure acts as the stress −q I
+            pr += pq * (gr + n)
+            pz += pq * gz
+            h = xi * eta * mass[ci, ck]  # f_I = −Σ_d Q_d h_I, Q_d = m_cell hg_d
+            hr_ -= h * hg[ci, ck, 0]
+            hz_ -= h * hg[ci, ck, 1]
+    return (fr, fz), (pr, pz), (hr_, hz_)
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def advance_nodes_rz(
+    hr, hz, rc, Vs, mass, stress, q, hg, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt, mtiny
+):
+    """v ← v + Δt f/m with stress, viscous, hourglass, gravity and external forces (per radian); then the
+    boundary conditions: fixed components take the prescribed velocity ``vfix`` and their reaction
+    m (v − v_free)/Δt is written to ``reaction`` (N/rad). ``damping`` α (1/s) adds the mass-proportional
+    force −α m v̄ (dynamic relaxation, for quasi-static checks; 0 in a physical run), integrated
+    implicitly (v̄ the mean velocity over the step) and counted as viscous dissipation.
+
+    Energies as in :func:`geocel.euler.lagrange.advance_nodes` (the work of each force with the mean
+    velocity v̄ = (v^{n−½} + v^{n+½})/2): returns (kinetic energy at n, work of the stresses, viscous
+    dissipation, hourglass dissipation, work of gravity, work of the external forces and reactions), J/rad."""
+    ncr, ncz = Vs.shape
+    acc = np.zeros((ncr + 1, 6))
+    gr_ = 0.5 / hr
+    gz_ = 0.5 / hz
+    nr_ = 0.25 / rc
+    a_half = 0.5 * damping * dt
+    for i in prange(ncr + 1):
+        ke = 0.0
+        wi = 0.0
+        wv = 0.0
+        wh = 0.0
+        wg = 0.0
+        wx = 0.0
+        for k in range(ncz + 1):
+            m = nmass[i, k]
+            if m <= mtiny:
+                v[i, k, 0] = vfix[i, k, 0] if fix[i, k, 0] else 0.0
+                v[i, k, 1] = vfix[i, k, 1] if fix[i, k, 1] else 0.0
+                reaction[i, k, 0] = 0.0
+                reaction[i, k, 1] = 0.0
+                continue
+            fs, fq, fh = node_force_rz(i, k, gr_, gz_, nr_, Vs, mass, stress, q, hg)
+            fgz = -m * gravity
+            fr = fs[0] + fq[0] + fh[0] + fext[i, k, 0]
+            fz = fs[1] + fq[1] + fh[1] + fgz + fext[i, k, 1]
+            c = dt / m
+            o0 = v[i, k, 0]
+            o1 = v[i, k, 1]
+            v0 = ((1.0 - a_half) * o0 + c * fr) / (1.0 + a_half)
+            v1 = ((1.0 - a_half) * o1 + c * fz) / (1.0 + a_half)
+            r0 = 0.0
+            r1 = 0.0
+            if fix[i, k, 0]:
+                r0 = (vfix[i, k, 0] - v0) / c
+                v0 = vfix[i, k, 0]
+            if fix[i, k, 1]:
+                r1 = (vfix[i, k, 1] - v1) / c
+                v1 = vfix[i, k, 1]
+            reaction[i, k, 0] = r0
+            reaction[i, k, 1] = r1
+            v[i, k, 0] = v0
+            v[i, k, 1] = v1
+            m0 = 0.5 * (o0 + v0)
+            m1 = 0.5 * (o1 + v1)
+            ke += 0.5 * m * (m0 * m0 + m1 * m1)
+            wi -= (fs[0] * m0 + fs[1] * m1) * dt
+            wv -= (fq[0] * m0 + fq[1] * m1) * dt
+            wv += damping * m * (m0 * m0 + m1 * m1) * dt
+            wh -= (fh[0] * m0 + fh[1] * m1) * dt
+            wg += fgz * m1 * dt
+            wx += ((fext[i, k, 0] + r0) * m0 + (fext[i, k, 1] + r1) * m1) * dt
+        acc[i, 0] = ke
+        acc[i, 1] = wi
+        acc[i, 2] = wv
+        acc[i, 3] = wh
+        acc[i, 4] = wg
+        acc[i, 5] = wx
+    t = acc.sum(axis=0)
+    return t[0], t[1], t[2], t[3], t[4], t[5]
+
+
+@njit(**KERNEL_OPTIONS)
+def velocity_gradient_rz(v, i, k, hr, hz, rc):
+    """At the centre of cell (i, k): (∂v_r/∂r, ∂v_r/∂z, ∂v_z/∂r, ∂v_z/∂z, v_r/r) and the hourglass
+    amplitudes (q_r, q_z) = Σ ξ_I η_I v_I."""
+    # corners (ξ, η): (−,−) = (i, k), (+,−) = (i+1, k), (−,+) = (i, k+1), (+,+) = (i+1, k+1)
+    a0 = v[i, k, 0]
+    b0 = v[i + 1, k, 0]
+    c0 = v[i, k + 1, 0]
+    d0 = v[i + 1, k + 1, 0]
+    a1 = v[i, k, 1]
+    b1 = v[i + 1, k, 1]
+    c1 = v[i, k + 1, 1]
+    d1 = v[i + 1, k + 1, 1]
+    gr = 0.5 / hr
+    gz = 0.5 / hz
+    return (
+        ((b0 + d0 - a0 - c0) * gr, (c0 + d0 - a0 - b0) * gz, (b1 + d1 - a1 - c1) * gr, (c1 + d1 - a1 - b1) * gz,
+         (a0 + b0 + c0 + d0) * 0.25 / rc),
+        (a0 - b0 - c0 + d0, a1 - b1 - c1 + d1),
+    )  # fmt: skip
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def update_cells_rz(
+    tag,
+    prm,
+    rc,
+    hr,
+    hz,
+    Vs,
+    mass,
+    stress,
+    state,
+    v,
+    q,
+    hg,
+    modulus,
+    flags,
+    dt,
+    b1,
+    b2,
+    kappa,
+    kappa_s,
+    hoff,
+    mf,
+    cf,
+):
+    """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (module
+    docstring: D = (D_rr, D_θθ, D_zz, 0, D_rz, 0)Δt, W_13 Δt; the model given by ``tag``), the bulk-viscosity
+    pressure q and the hourglass resistance for the next nodal pass (``hg``: per unit cell mass, so a cell
+    the remap has nearly emptied pushes proportionally less). Cells below :data:`PHI_MIN` are set
+    stress-free. ``state[..., hoff:hoff + 2]`` holds the hourglass generalised stresses (Pa).
+
+    Returns (stable Δt of the cells, flat index of the cell governing it), with the viscosity correction of
+    the explicit scheme as in 3D and L_e = :func:`characteristic_length_rz`."""
+    ncr, ncz = Vs.shape
+    n = ncr * ncz
+    s2 = stress.reshape((n, 6))
+    st2 = state.reshape((n, state.shape[2]))
+    nchunk = min(ncr, 64)
+    dts = np.full(nchunk, np.inf)
+    args = np.zeros(nchunk, dtype=np.int64)
+    for ch in prange(nchunk):
+        dbuf = np.empty(6)
+        wbuf = np.empty(3)
+        best = np.inf
+        best_c = -1
+        for i in range(ch * ncr // nchunk, (ch + 1) * ncr // nchunk):
+            r_c = rc[i]
+            h_r = hr[i]
+            for k in range(ncz):
+                c = i * ncz + k
+                h_z = hz[k]
+                area = h_r * h_z
+                vol = r_c * area
+                vs = Vs[i, k]
+                if vs < PHI_MIN * vol:
+                    for d in range(6):
+                        stress[i, k, d] = 0.0
+                    q[i, k] = 0.0
+                    hg[i, k, 0] = 0.0
+                    hg[i, k, 1] = 0.0
+                    st2[c, hoff] = 0.0
+                    st2[c, hoff + 1] = 0.0
+                    flags[i, k] = 0
+                    continue
+                L, qh = velocity_gradient_rz(v, i, k, h_r, h_z, r_c)
+                D = (L[0] * dt, L[4] * dt, L[3] * dt, 0.0, 0.5 * (L[1] + L[2]) * dt, 0.0)
+                W = (0.0, 0.5 * (L[1] - L[2]) * dt, 0.0)
+                M, f = cell_update(tag, prm, s2, st2, c, D, W, 1, dbuf, wbuf)
+                flags[i, k] = f
+                modulus[i, k] = M
+                rho = mass[i, k] / vs
+                cd = np.sqrt(M / rho)
+                le = characteristic_length_rz(h_r, h_z)
+                tr = L[0] + L[3] + L[4]
+                qn = -b1 * rho * cd * le * tr
+                if tr < 0.0:
+                    qn += rho * (b2 * le * tr) ** 2
+                q[i, k] = qn
+                # hourglass: K_d/V = 4G/h_d², Q̇_d = K_d q_d/16, per unit volume; bounded at the sub-points
+                gt = G_FROM_M * M
+                chg = kappa * cd / (4.0 * np.sqrt(area))
+                kfac = kappa_s * gt * dt / 4.0
+                hcell = (h_r, 1.0, h_z)
+                for d in range(2):
+                    h_d = h_r if d == 0 else h_z
+                    sq = st2[c, hoff + d] + kfac * qh[d] / (h_d * h_d)
+                    lim = subpoint_limit(s2, c, 2, 2 * d, hcell, mf, cf) / (6.0 * h_d)
+                    sq = min(max(sq, -lim), lim)
+                    st2[c, hoff + d] = sq
+                    hg[i, k, d] = chg * qh[d] + sq / rho
+                vmax = np.sqrt(L[0] ** 2 + L[3] ** 2 + L[4] ** 2) * le
+                xi_b = b1 - b2 * b2 * le * min(tr, 0.0) / max(cd, 1e-30)
+                dtc = le / (cd * (np.sqrt(1.0 + xi_b * xi_b) + xi_b) + vmax)
+                if dtc < best:
+                    best = dtc
+                    best_c = c
+        dts[ch] = best
+        args[ch] = best_c
+    dt_min = np.inf
+    arg = -1
+    for ch in range(nchunk):
+        if dts[ch] < dt_min:
+            dt_min = dts[ch]
+            arg = args[ch]
+    return dt_min, arg

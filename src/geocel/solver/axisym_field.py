@@ -1,0 +1,292 @@
+"""The axisymmetric (r–z) Eulerian soil field: arrays, geostatic state, Mass-Gravity-Scaling, one step.
+
+Standalone driver of the axisymmetric soil step (issue 17, first increment; not yet wired into
+:class:`geocel.solver.simulation.Simulation`). It mirrors :class:`geocel.solver.field.SoilField`: the same
+settings (:class:`~geocel.solver.field.SolverSettings`), the same soil models and MGS, the same deferred
+remap (``remap_courant``; ``np.inf`` keeps the material on its grid, a small-strain analysis). Kernels:
+:mod:`geocel.euler.axisym` (Lagrangian phase) and :mod:`geocel.euler.axisym_remap` (remap).
+
+Everything extensive is **per radian** (volumes r_c h_r h_z, masses, forces, energies; × 2π for the ring).
+Node arrays are (nr+1, nz+1[, 2]) with components (r, z); cell arrays (nr, nz[, k]); stresses are 3D
+6-vectors (rr, θθ, zz, rθ, rz, θz) with rθ = θz = 0.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit, prange
+
+from ..euler.axisym import (
+    HOURGLASS_STATE_RZ,
+    advance_nodes_rz,
+    characteristic_length_rz,
+    node_mass_rz,
+    update_cells_rz,
+)
+from ..euler.axisym_remap import remap_rz
+from ..euler.lagrange import PHI_MIN
+from ..grid.axisym import AxisymmetricGrid
+from ..materials.kernels import model_tag
+from ..materials.kernels import update_cells as material_update_cells
+from ..materials.tensor import KERNEL_OPTIONS
+from .field import E_MAX, E_MIN, ENERGY_KEYS, InstabilityError, Material, SolverSettings, node_spacing
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def _accumulate_rz(rr, rz, v, dt, u):
+    """u ← u + v Δt at every node; returns the largest |u_d|/spacing (the pending remap's Courant number)."""
+    n1, n2, _ = v.shape
+    cmax = np.zeros(n1)
+    for i in prange(n1):
+        c = 0.0
+        for k in range(n2):
+            a = u[i, k, 0] + dt * v[i, k, 0]
+            b = u[i, k, 1] + dt * v[i, k, 1]
+            u[i, k, 0] = a
+            u[i, k, 1] = b
+            c = max(c, abs(a) * rr[i], abs(b) * rz[k])
+        cmax[i] = c
+    return cmax.max()
+
+
+@dataclass
+class AxisymmetricField:
+    """Soil in the r–z plane on an :class:`~geocel.grid.axisym.AxisymmetricGrid`.
+
+    ``damping`` α (1/s): mass-proportional damping −α m v for quasi-static checks (dynamic relaxation), 0 in a
+    physical run. ``external_force`` (N/rad per node, (r, z)) is applied every step; nodes with ``fix`` set
+    take the velocity ``prescribed`` (m/s; zero by default: axis, roller, base) and their reaction is in
+    ``reaction`` (N/rad)."""
+
+    grid: AxisymmetricGrid
+    material: Material
+    scaling: float = 1.0
+    settings: SolverSettings = field(default_factory=SolverSettings)
+    damping: float = 0.0
+
+    def __post_init__(self) -> None:
+        g = self.grid
+        if self.scaling < 1.0:
+            raise ValueError(f"mass_gravity = {self.scaling} must be ≥ 1")
+        self.model_id = self.material.model_id
+        self._strength = self.material.strength_line()
+        self.model_tag = model_tag(self.model_id)
+        self.prm = self.material.to_array()
+        self.gravity = self.settings.gravity / self.scaling
+        self.grain_density = self.material.grain_density * self.scaling
+        shape = g.shape
+        nshape = (g.nr + 1, g.nz + 1)
+        self.nstate = len(self.material.state_names)
+        self.r, self.hr, self.hz, self.rc = g.r, g.hr, g.hz, g.rc
+        self.volume = g.cell_volumes()
+        self.active = np.ones(shape, dtype=np.bool_)
+        self.Vs = np.zeros(shape)
+        self.Vcur = self.volume.copy()
+        self.mass = np.zeros(shape)
+        self.stress = np.zeros(shape + (6,))
+        #: the material's state, then the two hourglass generalised stresses (per unit soil volume, Pa)
+        self.state = np.zeros(shape + (self.nstate + HOURGLASS_STATE_RZ,))
+        self.q = np.zeros(shape)
+        self.hg = np.zeros(shape + (2,))
+        self.modulus = np.zeros(shape)
+        self.flags = np.zeros(shape, dtype=np.int64)
+        self.fbar = np.zeros(shape)
+        self.v = np.zeros(nshape + (2,))
+        self.nmass = np.zeros(nshape)
+        self.fix = g.node_constraints()
+        self.prescribed = np.zeros(nshape + (2,))
+        self.external_force = np.zeros(nshape + (2,))
+        self.reaction = np.zeros(nshape + (2,))
+        self.u_remap = np.zeros(nshape + (2,))
+        self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / node_spacing(g.hz))
+        self.time = 0.0
+        self.step_count = 0
+        self.remap_count = 0
+        self.dt = 0.0
+        self.dt_critical = np.inf
+        self.governing_cell = -1
+        self.energy = dict.fromkeys(ENERGY_KEYS, 0.0)
+        self.lost_mass = 0.0
+        self.capped_volume = 0.0
+        self.mass_tiny = 0.0
+        self.initial_mass = 0.0
+        self.timers: dict[str, float] = dict.fromkeys(("nodes", "cells", "remap", "bookkeeping"), 0.0)
+
+    # --- initial state ------------------------------------------------------------------------------------------
+    def fill_below(self, surface: float = 0.0) -> None:
+        """Soil in every cell below z = ``surface`` (cells cut by it are partially filled)."""
+        frac = np.clip((surface - self.grid.z[:-1]) / self.hz, 0.0, 1.0)
+        self.Vs[...] = self.volume * frac[None, :]
+
+    def geostatic(
+        self, layers: list[tuple[float, float]], k0: float, intergranular: str = "vertical"
+    ) -> None:
+        """Void ratio per layer ``(top below surface, e0)``, densities, and the vertical stress in discrete
+        equilibrium with the lumped nodal gravity forces (σ_rr = σ_θθ = K0 σ_zz): per column, between the
+        cell a above and b below a node, φ_b σ_zz,b = φ_a σ_zz,a − g (μ_a + μ_b)/2 (μ = ρ φ h_z). The factor
+        r_c of the per-radian volumes cancels, and σ_rr = σ_θθ balances radially on any grading, so the
+        column is at rest to round-off."""
+        if not layers or layers[0][0] != 0.0:
+            raise ValueError("the first layer must start at the surface (top = 0)")
+        g = self.grid
+        depth = -g.zc
+        e0 = np.full(g.nz, layers[0][1])
+        for top, e in layers:
+            e0[depth >= top] = e
+        phi = self.Vs / self.volume
+        rho = self.grain_density / (1.0 + e0)
+        self.mass[...] = rho[None, :] * self.Vs
+        mu = rho[None, :] * phi * self.hz[None, :]
+        szz = np.zeros_like(self.Vs)
+        s = np.zeros(g.nr)
+        mu_above = np.zeros(g.nr)
+        for k in range(g.nz - 1, -1, -1):
+            s = s - self.gravity * 0.5 * (mu_above + mu[:, k])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                szz[:, k] = np.where(phi[:, k] >= PHI_MIN, s / np.maximum(phi[:, k], 1e-300), 0.0)
+            mu_above = mu[:, k]
+        self.stress[...] = 0.0
+        self.stress[..., 0] = k0 * szz
+        self.stress[..., 1] = k0 * szz
+        self.stress[..., 2] = szz
+        state0 = self.material.initial_state(float(layers[0][1]), intergranular)
+        self.state[...] = 0.0
+        self.state[..., : self.nstate] = state0
+        self.state[..., 0] = e0[None, :]
+        self.initialise()
+
+    def initialise(self) -> None:
+        """Nodal masses, the tiny-mass threshold, the initial mass and Δt from the current cell arrays (after
+        setting Vs, mass, stress and state by hand)."""
+        node_mass_rz(self.mass, self.nmass)
+        soil = self.Vs > PHI_MIN * self.volume
+        if soil.any():
+            rho = self.mass[soil] / self.Vs[soil]
+            self.mass_tiny = 1e-9 * float(rho.max() * self.volume[soil].min())
+        self.initial_mass = float(self.mass.sum())
+        self.dt = self.settings.safety_factor * self.stable_time_step()
+
+    def _modulus_now(self) -> np.ndarray:
+        soil = self.Vs > PHI_MIN * self.volume
+        out = np.zeros(self.Vs.shape)
+        n = int(soil.sum())
+        if n == 0:
+            return out
+        s = self.stress[soil].copy()
+        st = self.state[soil][:, : self.nstate].copy()
+        M = np.empty(n)
+        f = np.empty(n, dtype=np.int64)
+        material_update_cells(self.model_id, self.prm, s, st, np.zeros((n, 6)), np.zeros((n, 3)), 0.0, M, f)
+        out[soil] = M
+        return out
+
+    def stable_time_step(self) -> float:
+        """min L_e/c over the soil cells, c = √(M/ρ) of the current state, L_e = :func:`characteristic_length_rz`."""
+        soil = self.Vs > PHI_MIN * self.volume
+        if not soil.any():
+            return np.inf
+        M = self._modulus_now()[soil]
+        rho = self.mass[soil] / self.Vs[soil]
+        le = np.broadcast_to(characteristic_length_rz(self.hr[:, None], self.hz[None, :]), self.Vs.shape)[
+            soil
+        ]
+        dtc = le / np.sqrt(M / rho)
+        self.governing_cell = int(np.flatnonzero(soil.ravel())[np.argmin(dtc)])
+        self.dt_critical = float(dtc.min())
+        return self.dt_critical
+
+    # --- the explicit step ----------------------------------------------------------------------------------
+    def step(self, dt: float | None = None) -> None:
+        """One explicit step: Lagrangian phase, then the remap when the accumulated node displacements reach
+        ``remap_courant`` of a cell (every step with 0, never with ``np.inf``)."""
+        st = self.settings
+        dt = self.dt if dt is None else dt
+        tm = self.timers
+        t0 = time.perf_counter()
+        ke, dEi, dEv, dEh, wg, wx = advance_nodes_rz(
+            self.hr, self.hz, self.rc, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass, self.v,
+            self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
+            self.mass_tiny,
+        )  # fmt: skip
+        t1 = time.perf_counter()
+        dtc, arg = update_cells_rz(
+            self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
+            self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
+            st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength,
+        )  # fmt: skip
+        if not (np.isfinite(ke) and np.isfinite(dEi)):
+            raise InstabilityError(
+                f"axisymmetric step {self.step_count}: non-finite energy (Δt = {dt:.3g} s)",
+                {"step": self.step_count, "time": self.time, "dt": dt, "quantity": "kinetic_energy"},
+            )
+        t2 = time.perf_counter()
+        if np.isfinite(st.remap_courant):
+            deferred = st.remap_courant > 0.0
+            if not deferred:
+                self.u_remap[...] = 0.0
+            courant = _accumulate_rz(*self._node_reciprocal, self.v, dt, self.u_remap)
+            if not deferred or courant >= st.remap_courant:
+                self.remap(self.u_remap)
+        t3 = time.perf_counter()
+        e = self.energy
+        e["kinetic"] = ke
+        e["internal"] += dEi
+        e["viscous"] += dEv
+        e["hourglass"] += dEh
+        e["gravity_work"] += wg
+        e["external_work"] += wg + wx
+        self.time += dt
+        self.step_count += 1
+        self.dt_critical = dtc
+        self.governing_cell = arg
+        if np.isfinite(dtc):
+            self.dt = min(st.safety_factor * dtc, st.dt_growth * dt)
+        t4 = time.perf_counter()
+        tm["nodes"] += t1 - t0
+        tm["cells"] += t2 - t1
+        tm["remap"] += t3 - t2
+        tm["bookkeeping"] += t4 - t3
+
+    def remap(self, displacement: np.ndarray) -> None:
+        """Remap with the mesh motion ``displacement`` (m, then reset); e is recomputed from the density."""
+        ke_before = float(0.5 * (self.nmass * (self.v**2).sum(axis=-1)).sum())
+        lost, capped = remap_rz(
+            self.r, self.hz, self.active, self.v, 1.0, self.Vs, self.Vcur, self.mass, self.stress,
+            self.state[..., 1:], self.nmass, self.fbar, self.remap_count, self.mass_tiny,
+            self.grain_density / (1.0 + E_MAX), self.grain_density / (1.0 + E_MIN), displacement,
+        )  # fmt: skip
+        displacement[...] = 0.0
+        soil = (self.Vs > PHI_MIN * self.volume) & (self.mass > 0.0)
+        self.state[..., 0][soil] = self.grain_density * self.Vs[soil] / self.mass[soil] - 1.0
+        self.energy["remap_kinetic_loss"] += ke_before - float(
+            0.5 * (self.nmass * (self.v**2).sum(axis=-1)).sum()
+        )
+        self.lost_mass += lost
+        self.capped_volume += capped
+        self.remap_count += 1
+
+    # --- diagnostics ------------------------------------------------------------------------------------------
+    def energy_balance_error(self) -> float:
+        """KE + internal + dissipation + remap loss − external work (J/rad)."""
+        e = self.energy
+        return (
+            e["kinetic"]
+            + e["internal"]
+            + e["viscous"]
+            + e["hourglass"]
+            + e["remap_kinetic_loss"]
+            - e["external_work"]
+        )
+
+    def soil_mass(self) -> float:
+        """Soil mass per radian (kg/rad, scaled by S)."""
+        return float(self.mass.sum())
+
+    def mass_error(self) -> float:
+        """Relative change of soil mass, counting mass that left through the top as kept."""
+        if self.initial_mass == 0:
+            return 0.0
+        return (self.soil_mass() + self.lost_mass - self.initial_mass) / self.initial_mass
