@@ -310,6 +310,11 @@ class CsvOutput(Callback):
         super().__init__(func, schedule, name=name or Path(filename).stem, at_end=at_end)
         self.filename = Path(filename)
         self.columns = ["step", "time", "penetration", *columns]
+        if len(set(self.columns)) != len(self.columns):
+            raise ValueError(
+                f"CsvOutput {self.filename}: columns {list(columns)} repeat a name or one of step, time, "
+                "penetration (written in front of every row)"
+            )
         self.preamble = list(preamble)
         self.path: Path | None = None
         self._writer: HistoryWriter | None = None

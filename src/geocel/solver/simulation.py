@@ -1,8 +1,9 @@
 """The simulation loop: builds the model from a scenario, steps it, and drives the outputs.
 
-Outputs are callbacks on the loop with their own schedules: a progress bar, the history table (appended
-row by row, readable after a kill), VTK field snapshots with a ParaView .pvd series, checkpoints (restart
-with ``geocel run FILE --restart``) and ``summary.json``. An instability stops the run with a diagnostic and
+Outputs are callbacks on the loop with their own schedules (:mod:`geocel.solver.output`,
+:mod:`geocel.solver.writers`, docs/callbacks.md): a progress bar, the history table (appended row by row,
+readable after a kill), VTK field snapshots with a ParaView .pvd series, checkpoints (restart with ``geocel run
+FILE --restart``) and the user's own; then ``summary.json``. An instability stops the run with a diagnostic and
 writes the last complete state as a final snapshot and checkpoint.
 
 Restarts (DESIGN.md §1, "a killed run leaves everything readable"):
