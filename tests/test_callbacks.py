@@ -235,7 +235,7 @@ def test_callbacks_at_construction_and_unique_names(tmp_path):
         pass
 
     sim = Simulation(scenario_from_dict(PILE), out=tmp_path, progress=False, callbacks=[note])
-    assert sim.callback("note").schedule.interval == 1
+    assert sim.get_callback("note").schedule.interval == 1
     with pytest.raises(ValueError, match="already"):
         sim.add_callback(note)
     with pytest.raises(ValueError, match="already"):

@@ -236,7 +236,7 @@ class Simulation:
         self.callbacks.append(cb)
         return cb
 
-    def callback(self, name: str) -> Callback:
+    def get_callback(self, name: str) -> Callback:
         """The registered callback called ``name`` (e.g. ``"history"``)."""
         for cb in self.callbacks:
             if cb.name == name:

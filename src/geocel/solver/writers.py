@@ -7,7 +7,8 @@ the scenario's ``[output]`` table; they are found in ``sim.callbacks`` like a us
 from __future__ import annotations
 
 import time as _time
-from typing import TYPE_CHECKING
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -220,10 +221,10 @@ class FieldsOutput(Callback):
         super().reset()
         self.index = 0
 
-    def state(self) -> dict:
+    def state(self) -> dict[str, Any]:
         return {**super().state(), "index": self.index}
 
-    def restore(self, state) -> None:
+    def restore(self, state: Mapping[str, Any]) -> None:
         super().restore(state)
         self.index = int(state.get("index", 0))
 
