@@ -2,15 +2,15 @@
 halved and doubled (one at a time) and the change of the result is printed.
 
     python benchmarks/sensitivity.py punch [--cells-per-radius 8]
-    python benchmarks/sensitivity.py pile [--penetration 1.5] [--kind rigid]
+    python benchmarks/sensitivity.py pile [--penetration 1.5] [--kind rigid] [--only safety_factor ...]
 
 ``punch``: the mean q/c_u over 4–8 % D of the smooth rigid punch on Tresca soil (Shield: 5.69).
 ``pile``: q_b(z) and q_s(z) of the jacked pile at the demo resolution (small container, S = 10,
 0.5 m/s), as the MPE against the default run over the tip depths ≥ 0.3 m.
 
 The coefficients: viscous hourglass damping κ, the multiplier of the physical hourglass stiffness, linear
-and quadratic bulk viscosity, the remap's Courant number, the time-step safety factor and the Gauss–Seidel
-sweeps of the contact. Last line: the largest change (%) over all of them.
+and quadratic bulk viscosity, the remap's Courant number, the time-step safety factor and the soil model's
+substep (fraction of R). Last line: the largest change (%) over all of them.
 """
 
 from __future__ import annotations
@@ -28,12 +28,15 @@ COEFFICIENTS = {
     "bulk_viscosity_quadratic": 1.2,
     "remap_courant": 0.02,
     "safety_factor": 0.9,
+    "soil_substep": 0.1,
 }
 
 
-def _variants():
+def _variants(only=None):
     yield "default", {}
     for key, value in COEFFICIENTS.items():
+        if only and key not in only:
+            continue
         for factor in (0.5, 2.0):
             v = value * factor
             if key == "safety_factor" and v > 1.0:
@@ -41,12 +44,12 @@ def _variants():
             yield f"{key} x{factor:g}", {key: v}
 
 
-def punch(cells: int) -> None:
+def punch(cells: int, only=None) -> None:
     from geocel.verification import limit_over, punch_curve
 
     base = None
     worst = 0.0
-    for name, solver in _variants():
+    for name, solver in _variants(only):
         r = punch_curve(cells_per_radius=cells, settlement=0.08, velocity=0.2, solver=solver)
         lim = limit_over(r)
         base = lim if base is None else base
@@ -56,7 +59,7 @@ def punch(cells: int) -> None:
     print(f"largest change: {worst:.2f} %")
 
 
-def pile(penetration: float, kind: str) -> None:
+def pile(penetration: float, kind: str, only=None) -> None:
     import sys
 
     sys.path.insert(0, str(Path(__file__).parent))
@@ -66,7 +69,7 @@ def pile(penetration: float, kind: str) -> None:
     worst_b = worst_s = 0.0
     depths = np.arange(0.3, penetration + 1e-9, 0.1)
     with tempfile.TemporaryDirectory() as tmp:
-        for name, solver in _variants():
+        for name, solver in _variants(only):
             info, z, qb, qs = run(kind, 10.0, penetration, Path(tmp), solver)
             b = np.interp(depths, z, qb)
             s = np.interp(depths, z, qs)
@@ -89,11 +92,12 @@ def main() -> None:
     ap.add_argument("--cells-per-radius", type=int, default=8)
     ap.add_argument("--penetration", type=float, default=1.5)
     ap.add_argument("--kind", default="rigid", choices=("rigid", "coupled", "solid"))
+    ap.add_argument("--only", nargs="+", choices=list(COEFFICIENTS), help="vary only these coefficients")
     a = ap.parse_args()
     if a.case == "punch":
-        punch(a.cells_per_radius)
+        punch(a.cells_per_radius, a.only)
     else:
-        pile(a.penetration, a.kind)
+        pile(a.penetration, a.kind, a.only)
 
 
 if __name__ == "__main__":

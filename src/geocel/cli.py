@@ -360,6 +360,69 @@ def benchmark(
 
 
 @app.command()
+def sweep(
+    study_file: Annotated[Path, typer.Argument(help="study TOML file (docs/sweeps.md)")],
+    out: Annotated[
+        Path | None, typer.Option(help="output directory (default: sweeps/NAME, NAME the study's)")
+    ] = None,
+    workers: Annotated[
+        int | None,
+        typer.Option(help="local cluster: worker processes, one thread each (default: one per case, ≤ CPUs)"),
+    ] = None,
+    scheduler: Annotated[
+        str | None, typer.Option(help="dask scheduler address (default: a local cluster)")
+    ] = None,
+    rerun: Annotated[
+        bool,
+        typer.Option(
+            help="a case directory holding another scenario (the base or its set keys edited) is moved to "
+            "<case>.replaced and run again, instead of stopping"
+        ),
+    ] = False,
+) -> None:
+    """Run every case of a parametric study as a dask task: OUT/<case>/ run directories, results.csv,
+    results.parquet (one row per case) and qb_curves.png. Every case is validated before the cluster starts;
+    finished cases are reused, interrupted ones resumed. Exit 1 when a case did not finish."""
+    from .sweep import Study, plan_study, run_study
+
+    with user_errors():
+        if workers is not None and workers < 1:
+            raise ValueError(f"--workers = {workers}: must be ≥ 1")
+        if workers is not None and scheduler is not None:
+            raise ValueError(
+                "--workers: only for the local cluster; with --scheduler the cluster's workers run"
+            )
+        study = Study.from_toml(study_file)
+        out = out if out is not None else Path("sweeps") / study.name
+        plan = plan_study(study, out, rerun)
+    states = plan.states
+    again = {"finished": "reused (finished before)", "resume": "resumed from its checkpoint",
+             "replace": "another scenario: set aside and run again"}  # fmt: skip
+    counts = ", ".join(f"{sum(v == k for v in states.values())} {what}" for k, what in again.items()
+                       if k in states.values())  # fmt: skip
+    console.print(
+        f"[bold]geocel sweep[/bold] {escape(study.name)}: {len(states)} cases ({study.mode} of "
+        f"{', '.join(study.varied)}) → {out}" + (f"; {counts}" if counts else "")
+    )
+    with user_errors():
+        table = run_study(study, out, scheduler=scheduler, workers=workers, plan=plan, console=console)
+    shown = table.drop(columns=["error", "reused", "resumed"])
+    console.print(shown.to_markdown(index=False, floatfmt=".4g"), soft_wrap=True, markup=False)
+    console.print(
+        f"wall time {table.attrs['wall_time']:.1f} s\ntable: {out / 'results.csv'} (and results.parquet)\n"
+        f"figure: {out / 'qb_curves.png'}"
+    )
+    failed = table.attrs["failed"]
+    for name, why in failed.items():
+        console.print(f"[red]not finished:[/red] {escape(name)}: {escape(why)}", soft_wrap=True)
+    if failed:
+        console.print(
+            f"{len(failed)} of {len(table)} cases did not finish; run the command again to retry them"
+        )
+        raise typer.Exit(1)
+
+
+@app.command()
 def run(
     scenario_file: Annotated[Path, typer.Argument(help="scenario TOML file")],
     out: Annotated[

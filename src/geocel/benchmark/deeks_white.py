@@ -16,7 +16,6 @@ import json
 import math
 import os
 import platform
-import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..batch import dask_client, run_in_directory, run_state, run_tasks
 from ..config.scenario import Scenario
 from ..io.history import read_history
 from .plots import cell_average, plot_curves, value_at_depth, verdict
@@ -35,6 +35,7 @@ KIND_NAMES = {"solid": "solid", "conventional": "solid", "coupled": "coupled", "
 SCALINGS = (1, 10, 100)
 #: the range of the mass-gravity scaling factor S ([scaling] mass_gravity)
 S_RANGE = (1.0, 1.0e4)
+_HINT = "use another --out, or --rerun to set it aside and run the variant again"
 
 
 def parse_variants(text: str) -> list[tuple[str, float]]:
@@ -108,47 +109,10 @@ def variant_dict(
 
 
 def variant_state(root: str | Path, scenario: Scenario, rerun: bool = False) -> str:
-    """What to do with the run directory of a variant: ``"new"`` (nothing usable there), ``"finished"``
-    (reuse), ``"resume"`` (a readable checkpoint of the same scenario) or ``"replace"`` (another scenario,
-    ``rerun`` given). A directory holding another scenario without ``rerun`` raises
+    """What to do with the run directory of a variant (:func:`geocel.batch.run_state`): ``"new"``,
+    ``"finished"`` (reuse), ``"resume"`` or ``"replace"``; another scenario without ``rerun`` raises
     :class:`~geocel.config.fingerprint.ScenarioMismatchError` naming the keys that differ."""
-    from ..config.fingerprint import check_same_scenario
-    from ..config.scenario import load_scenario
-    from ..io.checkpoint import CheckpointError, load_latest_checkpoint
-    from ..io.rundir import RunDirectory
-
-    rd = RunDirectory(root, create=False)
-    recorded = None
-    try:
-        recorded = load_scenario(rd.config_toml)
-    except (OSError, ValueError):
-        pass
-    checkpoint = None
-    try:
-        checkpoint = load_latest_checkpoint(rd.checkpoint)
-    except CheckpointError:
-        pass
-    if recorded is None and checkpoint is not None:
-        recorded = checkpoint[1].get("scenario")
-    if recorded is None:
-        return "new"
-    try:
-        check_same_scenario(
-            recorded,
-            scenario,
-            what=f"the run in {rd.root}",
-            hint="use another --out, or --rerun to set it aside and run the variant again",
-        )
-    except ValueError:
-        if rerun:
-            return "replace"
-        raise
-    try:
-        if rd.read_summary().get("status") == "finished":
-            return "finished"
-    except (OSError, ValueError, AttributeError):
-        pass
-    return "resume" if checkpoint is not None else "new"
+    return run_state(root, scenario, rerun, hint=_HINT)
 
 
 def run_variant(
@@ -162,28 +126,13 @@ def run_variant(
     threads: int | None = None,
     rerun: bool = False,
 ) -> dict:
-    """Run, resume or reuse one variant (:func:`variant_state`); returns its summary (worker side), with
-    ``skipped`` true when a finished run of the same scenario was reused."""
+    """Run, resume or reuse one variant (:func:`geocel.batch.run_in_directory`); returns its summary (worker
+    side), with ``skipped`` true when a finished run of the same scenario was reused."""
     from ..config.scenario import scenario_from_dict
-    from ..solver.simulation import Simulation
 
-    if threads:
-        import numba
-
-        numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     name = variant_name(kind, S, velocity_factor)
-    root = Path(out_root) / name
     sc = scenario_from_dict(variant_dict(kind, S, resolution, penetration, velocity, velocity_factor))
-    state = variant_state(root, sc, rerun)
-    if state == "finished":
-        return {**json.loads((root / "summary.json").read_text()), "variant": name, "skipped": True}
-    if state == "replace":
-        aside = root.with_name(root.name + ".replaced")
-        shutil.rmtree(aside, ignore_errors=True)
-        root.rename(aside)
-    sim = Simulation(sc, out=root, progress=False, write_fields=False)
-    s = sim.run(restart=state == "resume")
-    return {**s, "variant": name, "skipped": False, "resumed": state == "resume"}
+    return {**run_in_directory(Path(out_root) / name, sc, threads, rerun), "variant": name}
 
 
 @dataclass
@@ -298,53 +247,34 @@ def run_benchmark(
         plan = plan_benchmark(
             out, resolution, penetration, velocity, variants, reference, time_scaling, rerun
         )
-    from dask.distributed import Client, LocalCluster, as_completed
-
     out, resolution, penetration, velocity = plan.out, plan.resolution, plan.penetration, plan.velocity
     out.mkdir(parents=True, exist_ok=True)
     # the longest variants first: idle workers take tasks in submission order, the priority orders the rest
     todo = sorted(plan.todo, key=lambda t: -_expected_cost(*t))
-    n = workers or max(1, min(len(todo), os.cpu_count() or 1))
-    if scheduler:
-        try:
-            client = Client(scheduler, timeout=30)
-        except (OSError, TimeoutError, ValueError) as err:
-            raise ValueError(f"--scheduler = {scheduler!r}: cannot connect ({err})") from None
-        threads = None
-    else:
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
-        client = Client(cluster)
-        threads = 1
-    echo(
-        f"dask: {client.scheduler.address if hasattr(client, 'scheduler') else scheduler}, {len(todo)} variants"
-    )
-    t0 = time.perf_counter()
-    futures = {
-        client.submit(
-            run_variant, k, S, str(out), resolution, penetration, velocity, vf, threads, plan.rerun, pure=False,
-            priority=_expected_cost(k, S, vf),
-        ): variant_name(k, S, vf)
-        for k, S, vf in todo
-    }  # fmt: skip
-    summaries: dict[str, dict] = {}
-    failed: dict[str, str] = {}
-    for fut in as_completed(futures):
-        name = futures[fut]
-        try:
-            s = fut.result()
-            summaries[name] = s
-            tag = "reused (finished before)" if s.get("skipped") else f"{s['wall_time']:.0f} s"
-            if s.get("resumed"):
-                tag += ", resumed from its checkpoint"
-            echo(f"  {name}: {s['status']}, {tag}")
-            if s["status"] != "finished":
-                failed[name] = f"status {s['status']}: {s.get('diagnostic')}"
-        except Exception as err:  # noqa: BLE001 - a failed variant must not stop the others
-            failed[name] = f"{type(err).__name__}: {' '.join(str(err).split())}"
-            echo(f"  {name}: FAILED {failed[name]}")
-    client.close()
-    if not scheduler:
-        cluster.close()
+
+    def report(name: str, s: dict | None, why: str | None) -> None:
+        if s is None:
+            echo(f"  {name}: FAILED {why}")
+            return
+        tag = "reused (finished before)" if s.get("skipped") else f"{s['wall_time']:.0f} s"
+        if s.get("resumed"):
+            tag += ", resumed from its checkpoint"
+        echo(f"  {name}: {s['status']}, {tag}")
+
+    with dask_client(scheduler, workers, len(todo)) as (client, threads):
+        echo(
+            f"dask: {client.scheduler.address if hasattr(client, 'scheduler') else scheduler}, {len(todo)} variants"
+        )
+        t0 = time.perf_counter()
+        tasks = {
+            variant_name(k, S, vf): (
+                run_variant,
+                (k, S, str(out), resolution, penetration, velocity, vf, threads, plan.rerun),
+            )
+            for k, S, vf in todo
+        }
+        priorities = {variant_name(k, S, vf): _expected_cost(k, S, vf) for k, S, vf in todo}
+        summaries, failed = run_tasks(client, tasks, priorities, report)
     wall = time.perf_counter() - t0
     return write_results(out, [variant_name(k, S, vf) for k, S, vf in todo], summaries, failed,
                          plan.reference if plan.reference is not None else None, wall, resolution, penetration,

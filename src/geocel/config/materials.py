@@ -38,6 +38,11 @@ class _Material(BaseModel):
         p mean pressure, Pa); unbounded for an elastic soil."""
         return 0.0, 1.0e300
 
+    def substep_strain(self, fraction: float) -> float:
+        """Largest strain of one explicit substep of the field solver's update (-): inf for models whose
+        update is exact for any increment (elastic; Mohr–Coulomb's return mapping)."""
+        return math.inf
+
 
 class Elastic(_Material):
     """Isotropic linear elasticity (hypoelastic with Jaumann rate)."""
@@ -151,6 +156,12 @@ class Hypoplastic(_Material):
         """The critical state in triaxial compression, q = M_c p with M_c = 6 sin φ_c/(3 − sin φ_c)."""
         s = math.sin(math.radians(self.phi_c))
         return 6.0 * s / (3.0 - s), 0.0
+
+    def substep_strain(self, fraction: float) -> float:
+        """``fraction`` × R: the rate equation is integrated by forward-Euler substeps, and the intergranular
+        strain changes the stiffness (m_R → 1) over a strain of the order of R, so a substep must resolve
+        R whatever the time step (one substep per time step made q_b depend on Δt: docs/numerics.md)."""
+        return fraction * self.R
 
     @model_validator(mode="after")
     def _check(self) -> Hypoplastic:

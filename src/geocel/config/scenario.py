@@ -450,6 +450,14 @@ class Solver(_Table):
         description="multiplier of the physical hourglass stiffness (assumed-strain energy of the modes at the "
         "soil's unloading shear modulus, bounded by the soil's strength at the cell's sub-points); 1 = physical, -",
     )
+    soil_substep: float = Field(
+        0.1,
+        gt=0.0,
+        le=1.0,
+        description="largest strain of one explicit substep of the hypoplastic update, as a fraction of the "
+        "intergranular strain's elastic range R (cells with a larger strain increment in a time step take "
+        "several substeps), -",
+    )
     bulk_viscosity_linear: float = Field(0.06, ge=0.0, le=1.0, description="linear bulk viscosity b_1, -")
     bulk_viscosity_quadratic: float = Field(
         1.2, ge=0.0, le=10.0, description="quadratic bulk viscosity b_2, -"

@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..materials.flags import SUBSTEP_LIMIT
 from ..materials.kernels import cell_update
 from ..materials.tensor import KERNEL_OPTIONS
 
@@ -294,6 +295,23 @@ def _velocity_gradient(v, i, j, k, hx, hy, hz):
     return L, (q1[0], q1[1], q1[2], q2[0], q2[1], q2[2], q3[0], q3[1], q3[2], q4[0], q4[1], q4[2])
 
 
+#: most explicit substeps of one cell's constitutive update in a time step (reached only at strain
+#: increments far beyond any in a stable explicit step; then flagged SUBSTEP_LIMIT)
+MAX_CELL_SUBSTEPS = 1000
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def substeps(D, max_sub):
+    """Number of equal explicit substeps for the strain increment D (6-tuple, tensor shear) so that none
+    exceeds the strain ``max_sub`` (the soil model's :meth:`~geocel.config.materials._Material.substep_strain`;
+    inf: one)."""
+    n2 = D[0] * D[0] + D[1] * D[1] + D[2] * D[2] + 2.0 * (D[3] * D[3] + D[4] * D[4] + D[5] * D[5])
+    n = np.ceil(np.sqrt(n2) / max_sub)
+    if n <= 1.0:
+        return 1
+    return int(min(n, MAX_CELL_SUBSTEPS))
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
 def update_cells(
     tag,
@@ -319,13 +337,17 @@ def update_cells(
     hoff,
     mf,
     cf,
+    max_sub,
 ):
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (the model
     given by ``tag``, :func:`geocel.materials.kernels.model_tag`).
 
     Also computes the bulk-viscosity pressure q and hourglass forces for the next nodal pass, and returns
     (stable Δt of the cells, index of the cell governing Δt). Cells below :data:`PHI_MIN` are set
-    stress-free. (The energies are accounted in :func:`advance_nodes`.)
+    stress-free. (The energies are accounted in :func:`advance_nodes`.) Each cell's update takes
+    :func:`substeps` equal explicit substeps so that none exceeds the strain ``max_sub``: the rate equation
+    is then integrated along the step's strain path to the same accuracy whatever Δt (for hypoplasticity
+    with intergranular strain a fraction of R, the strain over which its stiffness changes).
 
     Hourglass control is physical (docs/numerics.md): the generalised hourglass stresses grow with the
     hourglass strain at the stiffness of the mode's strain energy (:func:`hourglass_stiffness`) with the
@@ -379,7 +401,10 @@ def update_cells(
                     w12 = 0.5 * (L[1] - L[3]) * dt
                     w13 = 0.5 * (L[2] - L[6]) * dt
                     w23 = 0.5 * (L[5] - L[7]) * dt
-                    M, f = cell_update(tag, prm, s2, st2, c, D, (w12, w13, w23), 1, dbuf, wbuf)
+                    nsub = substeps(D, max_sub)
+                    M, f = cell_update(tag, prm, s2, st2, c, D, (w12, w13, w23), nsub, dbuf, wbuf)
+                    if nsub == MAX_CELL_SUBSTEPS:
+                        f |= SUBSTEP_LIMIT
                     flags[i, j, k] = f
                     modulus[i, j, k] = M
                     rho = mass[i, j, k] / vs

@@ -123,6 +123,9 @@ class SolverSettings:
     #: remap once a node has moved this fraction of its smallest adjacent cell since the last remap (the
     #: displacements accumulate in between); 0: remap after every step, as Abaqus/Explicit CEL does
     remap_courant: float = 0.02
+    #: largest strain of one explicit substep of the soil model, as a fraction of its strain scale
+    #: (hypoplastic: R); see :meth:`geocel.config.materials._Material.substep_strain`
+    soil_substep: float = 0.1
 
 
 @dataclass
@@ -139,6 +142,7 @@ class SoilField:
         self.model_id = self.material.model_id
         #: the soil's strength line in triaxial compression, q_f = M_f p + c_f (bounds the hourglass stresses)
         self._strength = self.material.strength_line()
+        self._max_substep = self.material.substep_strain(self.settings.soil_substep)
         self.model_tag = model_tag(self.model_id)
         self.prm = self.material.to_array()
         self.gravity = self.settings.gravity / self.scaling
@@ -324,6 +328,7 @@ class SoilField:
             st.hourglass_stiffness,
             self.nstate,
             *self._strength,
+            self._max_substep,
         )
         # a NaN anywhere reaches these sums (this step or the next): no extra pass over the arrays
         if not (np.isfinite(ke) and np.isfinite(dEi)):

@@ -90,6 +90,7 @@ def build_field(scenario: Scenario, grid: Grid | None = None) -> SoilField:
         bulk_viscosity_quadratic=s.bulk_viscosity_quadratic,
         gravity=s.gravity,
         remap_courant=s.remap_courant,
+        soil_substep=s.soil_substep,
     )
     mat = scenario.soil.material
     field = SoilField(grid, mat, scaling=scenario.scaling.mass_gravity, settings=settings)
