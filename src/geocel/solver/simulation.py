@@ -1,8 +1,9 @@
 """The simulation loop: builds the model from a scenario, steps it, and drives the outputs.
 
-Outputs are callbacks on the loop with their own schedules: a progress bar, the history table (appended
-row by row, readable after a kill), VTK field snapshots with a ParaView .pvd series, checkpoints (restart
-with ``geocel run FILE --restart``) and ``summary.json``. An instability stops the run with a diagnostic and
+Outputs are callbacks on the loop with their own schedules (:mod:`geocel.solver.output`,
+:mod:`geocel.solver.writers`, docs/callbacks.md): a progress bar, the history table (appended row by row,
+readable after a kill), VTK field snapshots with a ParaView .pvd series, checkpoints (restart with ``geocel run
+FILE --restart``) and the user's own; then ``summary.json``. An instability stops the run with a diagnostic and
 writes the last complete state as a final snapshot and checkpoint.
 
 Restarts (DESIGN.md §1, "a killed run leaves everything readable"):
@@ -23,103 +24,38 @@ import math
 import signal
 import threading
 import time as _time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 import numba
 import numpy as np
 
-from ..bodies.geometry import PileGeometry, pile_mesh
-from ..bodies.pile import PileBody, RigidPile, build_pile, head_displacement, head_velocity
+from ..bodies.geometry import PileGeometry
+from ..bodies.pile import PileBody, build_pile, head_displacement, head_velocity
 from ..config.fingerprint import check_same_scenario, resolved_dict, scenario_fingerprint
 from ..config.scenario import Scenario, ScenarioError, load_scenario
 from ..contact.coupling import ContactCoupling
 from ..grid import Grid
 from ..io.checkpoint import CheckpointError, load_latest_checkpoint, save_checkpoint
-from ..io.history import HistoryWriter, truncate_after
 from ..io.rundir import RunDirectory
-from ..io.vtk import PvdSeries, write_rectilinear, write_unstructured_hex
 from ..materials import flags as fl
 from .field import InstabilityError, SoilField, SolverSettings
+from .output import AnyOf, Callback, PenetrationInterval, Schedule, TimeInterval
 from .quasi_static import verdict as _verdict
+from .writers import (  # noqa: F401  (HISTORY_*, history_preamble: re-exported, they were defined here)
+    HISTORY_COLUMNS,
+    HISTORY_UNITS,
+    CheckpointOutput,
+    FieldsOutput,
+    HistoryOutput,
+    ProgressOutput,
+    history_preamble,
+)
 
-HISTORY_COLUMNS = [
-    "step",
-    "time",
-    "dt",
-    "penetration",
-    "tip_depth",
-    "qb",
-    "qs",
-    "base_force",
-    "shaft_force",
-    "head_force",
-    "pile_kinetic_energy",
-    "pile_strain_energy",
-    "friction_work",
-    "jack_work",
-    "soil_inside_pile",
-    "kinetic_energy",
-    "internal_energy",
-    "external_work",
-    "viscous_dissipation",
-    "hourglass_dissipation",
-    "remap_kinetic_loss",
-    "energy_error",
-    "energy_ratio",
-    "soil_mass",
-    "lost_mass",
-    "max_velocity",
-    "wall_time",
-]
-
-#: unit of each history column (the first comment line of ``history.csv``)
-HISTORY_UNITS = {
-    "step": "-",
-    "time": "s",
-    "dt": "s",
-    "penetration": "m",
-    "tip_depth": "m",
-    "qb": "Pa",
-    "qs": "Pa",
-    "base_force": "N",
-    "shaft_force": "N",
-    "head_force": "N",
-    "pile_kinetic_energy": "J",
-    "pile_strain_energy": "J",
-    "friction_work": "J",
-    "jack_work": "J",
-    "soil_inside_pile": "m3",
-    "kinetic_energy": "J",
-    "internal_energy": "J",
-    "external_work": "J",
-    "viscous_dissipation": "J",
-    "hourglass_dissipation": "J",
-    "remap_kinetic_loss": "J",
-    "energy_error": "J",
-    "energy_ratio": "-",
-    "soil_mass": "kg",
-    "lost_mass": "kg",
-    "max_velocity": "m/s",
-    "wall_time": "s",
-}
-
-#: version of the checkpoint metadata (2: with the scenario, status, phase times and governing element)
-CHECKPOINT_FORMAT = 2
-
-
-def history_preamble(symmetry: str) -> list[str]:
-    """Comment lines at the top of ``history.csv``: the unit of every column and what the symmetry factor
-    applies to (read with ``pandas.read_csv(path, comment="#")`` or :func:`geocel.io.history.read_history`)."""
-    k = {"quarter": 4, "half": 2}.get(symmetry, 1)
-    units = ", ".join(f"{c} [{HISTORY_UNITS[c]}]" for c in HISTORY_COLUMNS)
-    return [
-        f"units: {units}",
-        f"symmetry: {symmetry} model; qb, qs, base_force, shaft_force and head_force are of the whole pile "
-        f"(forces of the model multiplied by {k}); energies, works, volumes and masses are of the modelled "
-        f"part (not multiplied); qs is the shaft force over the embedded shaft area; rows average the forces "
-        f"over the steps since the previous row",
-    ]
+#: version of the checkpoint metadata (2: with the scenario, status, phase times and governing element; 3: with
+#: the state of every callback, ``callbacks``, and the step they last ran for, ``outputs_step``)
+CHECKPOINT_FORMAT = 3
 
 
 #: arrays of the soil field saved in a checkpoint
@@ -199,6 +135,11 @@ class Simulation:
     every ``fields_every`` m (or the time schedules, whichever comes first). The forces in a history row are
     averaged over the steps since the previous row (impulse / time). Checkpoints every
     ``checkpoint_every_steps`` steps and at the end.
+
+    Outputs are callbacks (:mod:`geocel.solver.output`), run for the initial state and after every step when
+    their schedule is due: the built-in ``history``, ``fields``, ``progress`` and ``checkpoint``
+    (:mod:`geocel.solver.writers`) and the user's own, given as ``callbacks=[...]`` or added with
+    :meth:`add_callback`. ``write_fields=False`` / ``progress=False`` keep the snapshots / the progress bar off.
     """
 
     def __init__(
@@ -208,6 +149,7 @@ class Simulation:
         duration: float | None = None,
         progress: bool = True,
         write_fields: bool = True,
+        callbacks: Iterable[Callback | Callable[[Simulation], Any]] = (),
     ) -> None:
         self.scenario = scenario
         self.has_pile = scenario.pile is not None
@@ -252,6 +194,137 @@ class Simulation:
         self.diagnostic: dict | None = None
         self._stop_requested = False
         self._checkpoint_step = -1
+        #: whether the current run() continues from a checkpoint
+        self.restarted = False
+        #: steps taken by the current run() (not counting those before a restart)
+        self.steps_this_run = 0
+        #: the step for which the callbacks were last asked whether they are due (-1: not yet)
+        self._outputs_step = -1
+        self._t_start = _time.perf_counter()
+        self._active: list[Callback] = []
+        #: the outputs and user callbacks (run in ascending ``order``, then in this order)
+        self.callbacks: list[Callback] = [
+            HistoryOutput(AnyOf(PenetrationInterval(self.history_dz), TimeInterval(self.history_dt))),
+            FieldsOutput(AnyOf(PenetrationInterval(self.fields_dz), TimeInterval(self.fields_dt))),
+            ProgressOutput(),
+            CheckpointOutput(self.checkpoint_every),
+        ]
+        for cb in callbacks:
+            self.add_callback(cb)
+
+    # --- callbacks -----------------------------------------------------------------------------------------
+    def add_callback(
+        self,
+        callback: Callback | Callable[[Simulation], Any],
+        schedule: Schedule | None = None,
+        name: str | None = None,
+        at_end: bool = False,
+    ) -> Callback:
+        """Register ``callback``: a :class:`~geocel.solver.output.Callback` (``schedule``/``name`` replace its
+        own if given), or a function ``f(sim)`` run whenever ``schedule`` is due (default: for the initial
+        state and after every step). Returns the callback. Names are unique: they key its state in checkpoints."""
+        if isinstance(callback, Callback):
+            cb = callback
+            if schedule is not None:
+                cb.schedule = schedule
+            if name is not None:
+                cb.name = name
+            cb.at_end = cb.at_end or at_end
+        else:
+            cb = Callback(callback, schedule, name=name, at_end=at_end)
+        if any(c.name == cb.name for c in self.callbacks):
+            raise ValueError(f"a callback named {cb.name!r} is registered already; give it another name")
+        self.callbacks.append(cb)
+        return cb
+
+    def get_callback(self, name: str) -> Callback:
+        """The registered callback called ``name`` (e.g. ``"history"``)."""
+        for cb in self.callbacks:
+            if cb.name == name:
+                return cb
+        raise KeyError(f"no callback named {name!r}; registered: {[c.name for c in self.callbacks]}")
+
+    def _ordered_callbacks(self) -> list[Callback]:
+        names = [cb.name for cb in self.callbacks]
+        if len(set(names)) != len(names):
+            raise ValueError(f"callback names must be unique: {names}")
+        return sorted(self.callbacks, key=lambda cb: cb.order)  # (stable: in the order they were added)
+
+    def _run_callbacks(self) -> None:
+        """Run the callbacks whose schedule is due for the current state."""
+        step = self.field.step_count
+        self._outputs_step = step
+        for cb in self._active:
+            if cb.schedule.due(self):
+                cb.last_step = step
+                cb(self)
+
+    def _final_outputs(self) -> None:
+        """The outputs of the state the run stops in: the final history row and snapshot, the checkpoint."""
+        step = self.field.step_count
+        for cb in self._active:
+            if cb.due_at_end(self):
+                cb.last_step = step
+                cb(self)
+
+    def _finalize_callbacks(self) -> list[str]:
+        """Every callback's ``finalize`` (files closed); returns one line per failure (each one is tried)."""
+        errors = []
+        for cb in self._active:
+            try:
+                cb.finalize(self)
+            except Exception as err:  # (the others still close their files)
+                errors.append(f"callback {cb.name!r}: finalize failed: {type(err).__name__}: {err}")
+        return errors
+
+    def _restore_callbacks(self, meta: dict) -> None:
+        """The callbacks' state of a checkpoint (or snapshot). A callback the checkpoint does not know (added
+        at a restart) joins with its next output after the restored state."""
+        states = meta.get("callbacks")
+        if states is None:  # (checkpoints before format 3: the counters of the history and the fields)
+            states = {
+                "history": {"schedule": {"count": int(meta.get("next_history", 0))}},
+                "fields": {
+                    "schedule": {"count": int(meta.get("next_fields", 0))},
+                    "index": meta.get("n_fields", 0),
+                },
+            }
+        self._outputs_step = int(meta.get("outputs_step", -1))
+        for cb in self._active:
+            if cb.name in states:
+                cb.restore(states[cb.name])
+            else:
+                cb.reset()
+                cb.schedule.join(self)
+
+    def keep_good_state(self, arrays: dict[str, np.ndarray], meta: dict) -> None:
+        """The complete state to go back to if a step fails (a snapshot and its metadata)."""
+        self._good, self._good_meta = arrays, meta
+
+    def elapsed(self) -> float:
+        """Wall time of the run so far (s), over restarts."""
+        return _time.perf_counter() - self._t_start
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s)."""
+        return self.field.time if self.field is not None else 0.0
+
+    @property
+    def step_count(self) -> int:
+        """Steps taken (over restarts)."""
+        return self.field.step_count if self.field is not None else 0
+
+    @property
+    def penetration(self) -> float:
+        """Penetration (m): the displacement of the pile head (0 without a pile)."""
+        return self.head_displacement() if self.field is not None else 0.0
+
+    @property
+    def force_sums(self) -> np.ndarray:
+        """Impulses since the last history row, modelled part: time (s), base, shaft and head force × time
+        (N s); the history's forces are these over the time."""
+        return self._sums
 
     # --- state ---------------------------------------------------------------------------------------------
     def _snapshot(self) -> dict[str, np.ndarray]:
@@ -282,9 +355,8 @@ class Simulation:
             "lost_mass": f.lost_mass,
             "capped_volume": f.capped_volume,
             "initial_mass": f.initial_mass,
-            "next_history": self._next_history,
-            "next_fields": self._next_fields,
-            "n_fields": self._n_fields,
+            "callbacks": {cb.name: cb.state() for cb in self._active},
+            "outputs_step": self._outputs_step,
             "max_energy_ratio": self.max_energy_ratio,
             "rule_counts": self.rule_counts,
             "wall_time": self.wall_time,
@@ -311,8 +383,8 @@ class Simulation:
             meta["capped_volume"],
             meta["initial_mass"],
         )
-        self._next_history, self._next_fields = meta["next_history"], meta["next_fields"]
-        self._n_fields, self.max_energy_ratio = meta["n_fields"], meta["max_energy_ratio"]
+        self._restore_callbacks(meta)
+        self.max_energy_ratio = meta["max_energy_ratio"]
         self.rule_counts.update(meta["rule_counts"])
         self.wall_time = meta["wall_time"]
         self.dt_min = meta.get("dt_min", self.dt_min)
@@ -373,107 +445,7 @@ class Simulation:
             return True
         return self.head_displacement() >= self._energy_check_start()
 
-    def _progress_value(self) -> float:
-        return self.head_displacement() if self.has_pile else self.field.time
-
     # --- outputs -------------------------------------------------------------------------------------------
-    def _history_row(self, wall: float) -> dict:
-        f = self.field
-        e = f.energy
-        row = {
-            "step": f.step_count,
-            "time": f.time,
-            "dt": f.dt,
-            "penetration": self.head_displacement(),
-            "tip_depth": self.tip_depth(),
-            "kinetic_energy": e["kinetic"],
-            "internal_energy": e["internal"],
-            "external_work": e["external_work"],
-            "viscous_dissipation": e["viscous"],
-            "hourglass_dissipation": e["hourglass"],
-            "remap_kinetic_loss": e["remap_kinetic_loss"],
-            "energy_error": f.energy_balance_error(),
-            "energy_ratio": self.energy_ratio(),
-            "soil_mass": f.soil_mass() / f.scaling,
-            "lost_mass": f.lost_mass / f.scaling,
-            "max_velocity": float(np.abs(f.v).max()),
-            "wall_time": wall,
-        }
-        nan = float("nan")
-        row.update(dict.fromkeys(("qb", "qs", "base_force", "shaft_force", "head_force"), nan))
-        if self.pile is not None:
-            c = self.contact
-            pile = self.pile
-            k = pile.symmetry_factor
-            T = self._sums[0]
-            if T > 0:
-                fb, fs, fh = self._sums[1] / T, self._sums[2] / T, self._sums[3] / T
-                L = c.embedded_length()
-                g = pile.geometry
-                row.update(
-                    qb=fb * k / g.base_area,
-                    qs=fs * k / (g.perimeter * L) if L > 0 else 0.0,
-                    base_force=fb * k,
-                    shaft_force=fs * k,
-                    head_force=fh * k,
-                )
-            self._sums[...] = 0.0
-            row.update(
-                pile_kinetic_energy=pile.kinetic_energy(),
-                pile_strain_energy=pile.strain_energy(),
-                friction_work=c.friction_work,
-                jack_work=pile.work,
-                soil_inside_pile=c.soil_inside(),
-            )
-        return row
-
-    def _pile_vtu(self) -> tuple[np.ndarray, np.ndarray, dict, dict]:
-        """Points, hexahedra, cell and point data of the pile for ParaView."""
-        pile = self.pile
-        if isinstance(pile, RigidPile):
-            if not hasattr(self, "_rigid_mesh"):
-                g = pile.geometry
-                self._rigid_mesh = pile_mesh(g, max(g.diameter / 4, g.length / 40), pile.symmetry)
-            m = self._rigid_mesh
-            shift = np.array([pile.center[0], pile.center[1], pile.z_apex - pile.geometry.z_tip])
-            pts = m.nodes + shift
-            return pts, m.hexes, {}, {"displacement": np.broadcast_to(shift, pts.shape).copy()}
-        body = pile.body.volume if pile.kind == "coupled" else pile.body
-        cell = {"stress": body.stress}
-        return body.x, body.hexes, cell, {"displacement": body.x - body.x0, "velocity": body.v}
-
-    def _write_fields(self) -> None:
-        if not self.write_fields:
-            return
-        f = self.field
-        path = write_rectilinear(
-            self.run_dir.field_path("soil", self._n_fields),
-            f.grid.x,
-            f.grid.y,
-            f.grid.z,
-            f.cell_fields(),
-            point_data={"velocity": f.v},
-        )
-        self._pvd.add(f.time, path)
-        if self.pile is not None:
-            pts, hexes, cd, pd = self._pile_vtu()
-            ppath = write_unstructured_hex(
-                self.run_dir.field_path("pile", self._n_fields), pts, hexes, cd, pd
-            )
-            self._pvd.add(f.time, ppath, part=1)
-            if self.pile.kind == "coupled":  # stress resultants along the beam (whole pile)
-                import pandas as pd
-
-                z, N = self.pile.axial_force()
-                M = self.pile.bending_moment()
-                table = pd.DataFrame(
-                    {"z_m": z, "axial_force_N": N, "moment_x_Nm": M[:, 0], "moment_y_Nm": M[:, 1]}
-                )
-                table.to_csv(
-                    self.run_dir.field_path("beam_forces", self._n_fields).with_suffix(".csv"), index=False
-                )
-        self._n_fields += 1
-
     def summary(self) -> dict:
         f = self.field
         out = {
@@ -585,17 +557,23 @@ class Simulation:
         self,
         restart: bool = False,
         stop_after_steps: int | None = None,
-        callback: Callable | None = None,
+        callback: Callable[[Simulation], Any] | None = None,
         allow_changes: bool = False,
     ) -> dict:
         """Run to the end (``duration`` or penetration); ``stop_after_steps`` interrupts early (checkpoint
         written, status ``interrupted``), ``restart`` continues from the run directory's checkpoint (refused
         with :class:`~geocel.config.fingerprint.ScenarioMismatchError` if the scenario differs from the
         checkpoint's, except, with ``allow_changes``, in the keys that are safe to change; a finished run is
-        left as it is). Raises :class:`~geocel.io.checkpoint.CheckpointError` if no checkpoint can be read."""
+        left as it is). ``callback(sim)`` is called after every step, after the registered callbacks (kept
+        for compatibility; :meth:`add_callback` gives it a schedule and a place in checkpoints). Raises
+        :class:`~geocel.io.checkpoint.CheckpointError` if no checkpoint can be read.
+
+        The loop: step, then every callback that is due (:meth:`add_callback`; the checkpoint last), then the
+        stop criteria; the callbacks also run once for the initial state."""
         rd = self.run_dir
         self._scenario_record = resolved_dict(self.scenario)
         self._fingerprint = scenario_fingerprint(self._scenario_record)
+        self._active = self._ordered_callbacks()
         ckpt = self._read_checkpoint(allow_changes) if restart else None
         rd.check_writable()
         self.field = build_field(self.scenario)
@@ -604,11 +582,12 @@ class Simulation:
             self.contact = f.contact
             self.pile = f.contact.pile
         self._sums = np.zeros(4)  # time, base, shaft and head force impulses since the last history row
-        self._next_history = 0.0
-        self._next_fields = 0.0
-        self._n_fields = 0
+        self._outputs_step = -1
         self.diagnostic = None
         self.dt_min = self._governing()
+        self.restarted = ckpt is not None
+        for cb in self._active:
+            cb.reset()
         if ckpt is not None:
             arrays, meta = ckpt
             self._check_shapes(arrays)
@@ -619,33 +598,24 @@ class Simulation:
                 return self._already_finished()
             if self.restarts and self.restarts[-1].get("step") == f.step_count:
                 rd.write_config(self.scenario)  # the allowed changes: config.toml describes the run again
-            history = self._reopen_history()
-            self._pvd = PvdSeries(rd.pvd)
-            self._pvd.drop_after(self.field.time)
         else:
             rd.write_config(self.scenario)
-            history = HistoryWriter(
-                rd.history_csv, HISTORY_COLUMNS, preamble=history_preamble(self.scenario.domain.symmetry)
-            )
-            self._pvd = PvdSeries(rd.pvd)
-        good = self._snapshot()
-        good_meta = self._meta()
+        self.keep_good_state(self._snapshot(), self._meta())
         self.status = "running"
-        t_start = _time.perf_counter() - self.wall_time
-        total = self.target if self.has_pile else self.duration
-        bar = _Progress(total, "m" if self.has_pile else "s", enabled=self.progress)
-        steps_this_run = 0
+        self._t_start = _time.perf_counter() - self.wall_time
+        self.steps_this_run = 0
         # parallel loops hand out one row at a time: the rows differ in work (the cylinder mask shortens
         # the outer ones), and equal blocks per thread left one core idle part of the time (≈ 5 % per step)
         chunk = numba.set_parallel_chunksize(1)
         previous_handler = self._catch_sigint()
+        completed = False
         try:
+            for cb in self._active:
+                cb.initialize(self)
+            if self._outputs_step != f.step_count:  # the initial state (not again for a restart's)
+                self._run_callbacks()
+                self.keep_good_state(self._snapshot(), self._meta())
             while not self._done():
-                z = self.head_displacement()
-                if self._due("history", z):
-                    history.write(self._history_row(_time.perf_counter() - t_start))
-                if self._due("fields", z):
-                    self._write_fields()
                 dt = self._governing()
                 if self.pile is not None:
                     self._advance_pile(dt)
@@ -653,7 +623,7 @@ class Simulation:
                 if self.pile is not None:
                     fc = self.contact.forces
                     self._sums += (dt, fc.base[2] * dt, fc.shaft[2] * dt, self.pile.head_force * dt)
-                steps_this_run += 1
+                self.steps_this_run += 1
                 self.dt_min = min(self.dt_min, dt)
                 self._count_rules()
                 ratio = self.energy_ratio()
@@ -662,43 +632,29 @@ class Simulation:
                     if self.ke_limit is not None and ratio > self.ke_limit:
                         self._energy_limit_crossed(ratio)
                         break
-                if f.step_count % 200 == 0:
-                    good = self._snapshot()
-                    good_meta = self._meta()
-                if f.step_count % self.checkpoint_every == 0:
-                    self.wall_time = _time.perf_counter() - t_start
-                    good, good_meta = self.checkpoint()
+                self._run_callbacks()  # the outputs, the user's callbacks, the checkpoint (last)
+                if f.step_count % 200 == 0 and self._checkpoint_step != f.step_count:
+                    self.keep_good_state(self._snapshot(), self._meta())
                 if callback is not None:
                     callback(self)
-                bar.update(self, steps_this_run)
                 if self.max_steps is not None and f.step_count >= self.max_steps:
                     self.status = "max_steps"
                     break
                 if self._stop_requested or (
-                    stop_after_steps is not None and steps_this_run >= stop_after_steps
+                    stop_after_steps is not None and self.steps_this_run >= stop_after_steps
                 ):
                     self.status = "interrupted"
                     break
             else:
                 self.status = "finished"
-            self.wall_time = _time.perf_counter() - t_start
-            if (
-                self.status == "finished"
-            ):  # (the schedules advanced, so a continuation does not repeat the row)
-                z = self.head_displacement()
-                self._due("history", z)
-                history.write(self._history_row(self.wall_time))
-                self._due("fields", z)
-                self._write_fields()
-            if self.status == "unstable":
-                self._write_fields()
-            self.checkpoint()
+            self.wall_time = self.elapsed()
+            self._final_outputs()  # the final history row and snapshot if not written yet; the checkpoint
+            completed = True
         except InstabilityError as err:
             # the state is broken part-way through a step: back to the last complete one kept
-            self.status = "unstable"
-            wall = _time.perf_counter() - t_start
-            self._restore(good)
-            self._apply_meta(good_meta)
+            wall = self.elapsed()
+            self._restore(self._good)
+            self._apply_meta(self._good_meta)
             self.status = "unstable"
             self.diagnostic = {
                 **err.diagnostic,
@@ -709,17 +665,17 @@ class Simulation:
             if self.has_pile:
                 self.diagnostic["last_complete_penetration"] = self.head_displacement()
             self.wall_time = wall  # the time spent, not the restored snapshot's
-            self._write_fields()
-            self.checkpoint()
+            self._final_outputs()  # the last complete state as a snapshot and a checkpoint
+            completed = True
         except KeyboardInterrupt:
             # a second Ctrl-C (or one outside the main thread's handler): the step may be half done; keep the
             # newest complete state, the one in memory or the checkpoint on disk
-            wall = _time.perf_counter() - t_start
-            self._restore(good)
-            self._apply_meta(good_meta)
+            wall = self.elapsed()
+            self._restore(self._good)
+            self._apply_meta(self._good_meta)
             self.status = "interrupted"
             self.wall_time = wall
-            if good_meta["step"] > self._checkpoint_step:
+            if self._good_meta["step"] > self._checkpoint_step:
                 self.checkpoint()
             self.notes.append(
                 f"stopped part-way through a step: kept the complete state of step {f.step_count}"
@@ -745,13 +701,14 @@ class Simulation:
             if previous_handler is not None:
                 signal.signal(signal.SIGINT, previous_handler)
             numba.set_parallel_chunksize(chunk)
-            bar.update(self, steps_this_run, force=True)  # the final state, not the last throttled one
-            bar.close()
-            history.close()
+            errors = self._finalize_callbacks()  # files closed, the progress bar's final state
+            self.notes += errors
             try:
                 rd.write_summary(self.summary())
             except OSError as err:  # (a full disk): the checkpoint and history written before stay valid
                 self.notes.append(f"could not write {rd.summary_json}: {err.strerror}")
+        if completed and errors:
+            raise RuntimeError(errors[0])
         return self.summary()
 
     # --- restart and interruption --------------------------------------------------------------------------
@@ -805,22 +762,6 @@ class Simulation:
             self.run_dir.write_summary(summary)
         return summary
 
-    def _reopen_history(self) -> HistoryWriter:
-        """The history for a restart: rows after the checkpoint dropped; an unreadable file is set aside."""
-        rd = self.run_dir
-        preamble = history_preamble(self.scenario.domain.symmetry)
-        try:
-            if rd.history_csv.is_file():
-                truncate_after(rd.history_csv, self.field.step_count)
-                return HistoryWriter(rd.history_csv, HISTORY_COLUMNS, append=True, preamble=preamble)
-        except ValueError as err:
-            broken = rd.history_csv.with_name("history.unreadable.csv")
-            rd.history_csv.replace(broken)
-            self.notes.append(
-                f"{err}: kept as {broken.name}; history.csv starts again at step {self.field.step_count}"
-            )
-        return HistoryWriter(rd.history_csv, HISTORY_COLUMNS, preamble=preamble)
-
     def _catch_sigint(self):
         """First Ctrl-C: finish the step, checkpoint, stop (status ``interrupted``); a second one interrupts
         at once. Only in the main thread (signal handlers cannot be set elsewhere, e.g. in dask workers)."""
@@ -863,76 +804,9 @@ class Simulation:
         if self.has_pile:
             self.diagnostic["last_complete_penetration"] = self.head_displacement()
 
-    def _due(self, what: str, z: float) -> bool:
-        """Whether the history row / field snapshot is due, and if so advance its counter. The counter n is the
-        number of rows written; row n is due at time n·Δt or at penetration n·Δz, whichever comes first (row 0
-        at the start)."""
-        nxt = self._next_history if what == "history" else self._next_fields
-        dz = self.history_dz if what == "history" else self.fields_dz
-        dtt = self.history_dt if what == "history" else self.fields_dt
-        due = nxt == 0 or self.field.time >= nxt * dtt - 1e-12 * self.duration or z >= nxt * dz - 1e-9
-        if not due:
-            return False
-        nxt += 1
-        if what == "history":
-            self._next_history = nxt
-        else:
-            self._next_fields = nxt
-        return True
-
     def _count_rules(self) -> None:
         flags = self.field.flags
         fired = int(np.bitwise_or.reduce(flags, axis=None))  # one pass; most steps fire no rule at all
         for bit, name in fl.NAMES.items():
             if fired & bit:
                 self.rule_counts[name] += int(np.count_nonzero(flags & bit))
-
-
-class _Progress:
-    """Rich progress bar over simulated time: Δt, steps/s, ETA, kinetic/internal energy ratio."""
-
-    def __init__(self, total: float, unit: str = "s", enabled: bool = True) -> None:
-        self.unit = unit
-        self.enabled = enabled
-        self._last = 0.0
-        if not enabled:
-            return
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
-        self.p = Progress(
-            TextColumn(
-                "[bold]penetration {task.completed:.3f} / {task.total:.3g} m"
-                if unit == "m"
-                else "[bold]t = {task.completed:.4g} / {task.total:.4g} s"
-            ),
-            BarColumn(),
-            TextColumn("{task.fields[info]}"),
-            TimeElapsedColumn(),
-            TimeRemainingColumn(),
-            # redrawn from the stepping thread below: a refresh thread would take the GIL from the step
-            # between kernels (measured: ≈ 10 % of the run time with rich's default 10 refreshes/s)
-            auto_refresh=False,
-        )
-        self.p.start()
-        self.task = self.p.add_task("run", total=total, info="")
-        self._t0 = _time.perf_counter()
-
-    def update(self, sim: Simulation, steps: int, force: bool = False) -> None:
-        if not self.enabled:
-            return
-        now = _time.perf_counter()
-        if now - self._last < 0.5 and not force:
-            return
-        self._last = now
-        ratio = sim.energy_ratio()
-        rate = steps / max(now - self._t0, 1e-9)
-        self.p.update(
-            self.task,
-            completed=sim._progress_value(),
-            info=f"Δt {sim.governing['dt']:.3g} s · {rate:.0f} steps/s · KE/IE {ratio:.2%}",
-        )
-        self.p.refresh()
-
-    def close(self) -> None:
-        if self.enabled:
-            self.p.stop()
