@@ -558,7 +558,7 @@ def _print_stop(summary: dict, sim) -> None:
 
 def _print_verdict(summary: dict) -> bool:
     """Print the quasi-static check; returns False when it says invalid."""
-    from .solver.quasi_static import verdict
+    from .solver.quasi_static import inertia_verdict, verdict
 
     ratio = summary["max_energy_ratio"]
     v = verdict(ratio)
@@ -567,6 +567,14 @@ def _print_verdict(summary: dict) -> bool:
         f"quasi-static check: max kinetic/internal energy = {shown} → [bold]{v}[/bold] "
         f"(≤ 5 % valid, ≤ 10 % caution)"
     )
+    inertia = summary.get("max_inertia_ratio")
+    if inertia is not None:
+        vi = inertia_verdict(inertia)
+        console.print(
+            f"inertia check: max ρ_S v²/q_b = {inertia:.3%} → [bold]{vi}[/bold] (≤ 0.3 % valid: q_b within "
+            f"≈ 5 % of the quasi-static value; ≤ 1 % caution; lower S or the speed if not valid)"
+        )
+        v = "invalid" if vi == "invalid" else v
     return v != "invalid"
 
 

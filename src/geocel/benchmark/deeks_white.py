@@ -26,6 +26,7 @@ import pandas as pd
 from ..batch import dask_client, run_in_directory, run_state, run_tasks
 from ..config.scenario import Scenario
 from ..io.history import read_history
+from ..solver.quasi_static import inertia_verdict
 from .plots import cell_average, plot_curves, value_at_depth, verdict
 from .presets import RESOLUTIONS, preset_dict, scenario_from_options
 
@@ -338,6 +339,8 @@ def write_results(
             "runtime_vs_single_dt_conventional_S1": s["wall_time"] / base_single if base_single else math.nan,
             "max_KE_IE": s["max_energy_ratio"],
             "quasi_static": verdict(s["max_energy_ratio"]),
+            "max_inertia_ratio": s.get("max_inertia_ratio"),
+            "inertia_check": inertia_verdict(s.get("max_inertia_ratio")),
             "soil_mass_error": s["soil_mass_error"],
         }
         if ref is not None and h is not None:

@@ -451,6 +451,14 @@ class SoilField:
     def soil_mass(self) -> float:
         return float(self.mass[self.active3].sum())
 
+    def soil_density(self) -> float:
+        """Largest density of the soil, kg/m³ (mass scaling included: what inertia sees), over the cells
+        at least half full."""
+        full = self.active3 & (self.Vs >= 0.5 * self.volume)
+        if not full.any():
+            return 0.0
+        return float((self.mass[full] / self.Vs[full]).max())
+
     def mass_error(self) -> float:
         """Relative change of soil mass, counting mass that left through the top as kept."""
         if self.initial_mass == 0:

@@ -42,6 +42,7 @@ from ..io.rundir import RunDirectory
 from ..materials import flags as fl
 from .field import InstabilityError, SoilField, SolverSettings
 from .output import AnyOf, Callback, PenetrationInterval, Schedule, TimeInterval
+from .quasi_static import inertia_verdict as _inertia_verdict
 from .quasi_static import verdict as _verdict
 from .writers import (  # noqa: F401  (HISTORY_*, history_preamble: re-exported, they were defined here)
     HISTORY_COLUMNS,
@@ -180,6 +181,8 @@ class Simulation:
         self.pile: PileBody | None = None
         self.contact: ContactCoupling | None = None
         self.max_energy_ratio = 0.0
+        #: max of ρ_S v² / q_b over the history rows with the tip ≥ one diameter deep (-1: not yet)
+        self.max_inertia_ratio = -1.0
         self.status = "created"
         self.wall_time = 0.0
         self.rule_counts: dict[str, int] = dict.fromkeys(fl.NAMES.values(), 0)
@@ -358,6 +361,7 @@ class Simulation:
             "callbacks": {cb.name: cb.state() for cb in self._active},
             "outputs_step": self._outputs_step,
             "max_energy_ratio": self.max_energy_ratio,
+            "max_inertia_ratio": self.max_inertia_ratio,
             "rule_counts": self.rule_counts,
             "wall_time": self.wall_time,
             "dt_min": self.dt_min,
@@ -385,6 +389,7 @@ class Simulation:
         )
         self._restore_callbacks(meta)
         self.max_energy_ratio = meta["max_energy_ratio"]
+        self.max_inertia_ratio = meta.get("max_inertia_ratio", -1.0)
         self.rule_counts.update(meta["rule_counts"])
         self.wall_time = meta["wall_time"]
         self.dt_min = meta.get("dt_min", self.dt_min)
@@ -438,6 +443,12 @@ class Simulation:
         start = max(self.scenario.loading.ramp, self.scenario.pile.diameter)
         return min(start, 0.5 * self.target)
 
+    def record_inertia(self, qb: float) -> None:
+        """Update max(ρ_S v² / q_b) with a row's base resistance q_b (Pa); see
+        :mod:`geocel.solver.quasi_static`."""
+        r = self._soil_density * self.velocity**2 / qb
+        self.max_inertia_ratio = max(self.max_inertia_ratio, r)
+
     def _energy_check_active(self) -> bool:
         """The quasi-static check starts once the pile has moved one diameter (and past the ramp): before, the
         internal energy is still near zero and any ratio is meaningless. Soil-only runs: always."""
@@ -476,6 +487,8 @@ class Simulation:
             "rule_counts": self.rule_counts,
             "diagnostic": self.diagnostic,
             "quasi_static": _verdict(self.max_energy_ratio),
+            "max_inertia_ratio": self.max_inertia_ratio if self.max_inertia_ratio >= 0.0 else None,
+            "inertia_check": _inertia_verdict(self.max_inertia_ratio),
             "energy_check_from_penetration": self._energy_check_start() if self.has_pile else 0.0,
             "restarts": self.restarts,
             "notes": self.notes,
@@ -577,6 +590,7 @@ class Simulation:
         ckpt = self._read_checkpoint(allow_changes) if restart else None
         rd.check_writable()
         self.field = build_field(self.scenario)
+        self._soil_density = self.field.soil_density()
         f = self.field
         if f.contact is not None:
             self.contact = f.contact

@@ -173,8 +173,11 @@ class HistoryOutput(Callback):
                 fb, fs, fh = sums[1] / T, sums[2] / T, sums[3] / T
                 L = c.embedded_length()
                 g = pile.geometry
+                qb = fb * k / g.base_area
+                if row["tip_depth"] >= g.diameter and qb > 0.0:
+                    sim.record_inertia(qb)
                 row.update(
-                    qb=fb * k / g.base_area,
+                    qb=qb,
                     qs=fs * k / (g.perimeter * L) if L > 0 else 0.0,
                     base_force=fb * k,
                     shaft_force=fs * k,

@@ -34,6 +34,9 @@ COLUMNS = {
     "tip_depth_m": "tip depth reached, m",
     "max_KE_IE": "largest kinetic/internal energy ratio of the checked part of the run, -",
     "quasi_static": "the ratio's verdict: valid (≤ 5 %), caution (≤ 10 %), invalid",
+    "max_inertia_ratio": "largest ρ_S v²/q_b with the tip ≥ one diameter deep (inertia against resistance), -",
+    "inertia_check": "its verdict: valid (≤ 0.3 %: q_b within ≈ 5 % of the quasi-static one), caution (≤ 1 %), "
+    "invalid, unknown",
     "steps": "explicit time steps, -",
     "wall_time_s": "wall time of the run, s (a reused case: that of the run that made it)",
     "reused": "true when a finished run of the same scenario was reused (not run again)",
@@ -202,6 +205,8 @@ def study_table(
         row["tip_depth_m"] = _num(s.get("tip_depth"))
         row["max_KE_IE"] = _num(s.get("max_energy_ratio"))
         row["quasi_static"] = s.get("quasi_static")
+        row["max_inertia_ratio"] = _num(s.get("max_inertia_ratio"))
+        row["inertia_check"] = s.get("inertia_check", "unknown")
         row["steps"] = s.get("steps")
         row["wall_time_s"] = _num(s.get("wall_time"))
         row["reused"] = bool(s.get("skipped", False))
