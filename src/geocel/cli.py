@@ -571,7 +571,7 @@ def _print_verdict(summary: dict) -> bool:
     if inertia is not None:
         vi = inertia_verdict(inertia)
         console.print(
-            f"inertia check: max ρ_S v²/q_b = {inertia:.3%} → [bold]{vi}[/bold] (≤ 0.3 % valid: q_b within "
+            f"inertia check: max ρ_S v²/q_b = {inertia:.3%} → [bold]{vi}[/bold] (≤ 0.5 % valid: q_b within "
             f"≈ 5 % of the quasi-static value; ≤ 1 % caution; lower S or the speed if not valid)"
         )
         v = "invalid" if vi == "invalid" else v
