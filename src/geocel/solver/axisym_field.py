@@ -73,6 +73,7 @@ class AxisymmetricField:
             raise ValueError(f"mass_gravity = {self.scaling} must be ≥ 1")
         self.model_id = self.material.model_id
         self._strength = self.material.strength_line()
+        self._max_substep = self.material.substep_strain(self.settings.soil_substep)
         self.model_tag = model_tag(self.model_id)
         self.prm = self.material.to_array()
         self.gravity = self.settings.gravity / self.scaling
@@ -215,7 +216,7 @@ class AxisymmetricField:
         dtc, arg = update_cells_rz(
             self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
             self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
-            st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength,
+            st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength, self._max_substep,
         )  # fmt: skip
         if not (np.isfinite(ke) and np.isfinite(dEi)):
             raise InstabilityError(
