@@ -115,6 +115,9 @@ class AxisymmetricField:
         self.mass_tiny = 0.0
         self.initial_mass = 0.0
         self.timers: dict[str, float] = dict.fromkeys(("nodes", "cells", "remap", "bookkeeping"), 0.0)
+        #: contact with a pile (:class:`geocel.contact.axisym.AxisymmetricPileContact`), applied to the trial
+        #: velocities of every step
+        self.contact = None
 
     # --- initial state ------------------------------------------------------------------------------------------
     def fill_below(self, surface: float = 0.0) -> None:
@@ -207,11 +210,15 @@ class AxisymmetricField:
         dt = self.dt if dt is None else dt
         tm = self.timers
         t0 = time.perf_counter()
+        if self.contact is not None:
+            self.contact.before_nodes()
         ke, dEi, dEv, dEh, wg, wx = advance_nodes_rz(
             self.hr, self.hz, self.rc, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass, self.v,
             self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
             self.mass_tiny,
         )  # fmt: skip
+        if self.contact is not None:
+            self.contact.apply(dt)
         t1 = time.perf_counter()
         dtc, arg = update_cells_rz(
             self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
@@ -230,6 +237,8 @@ class AxisymmetricField:
                 self.u_remap[...] = 0.0
             courant = _accumulate_rz(*self._node_reciprocal, self.v, dt, self.u_remap)
             if not deferred or courant >= st.remap_courant:
+                if self.contact is not None:
+                    self.contact.before_remap(self.u_remap)
                 self.remap(self.u_remap)
         t3 = time.perf_counter()
         e = self.energy
