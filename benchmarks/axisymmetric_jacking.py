@@ -8,7 +8,7 @@ a/n out to 4a and down to the final depth + 1 m, then growing by 15 % per cell u
 the node line r = a. Contact: :mod:`geocel.contact.axisym`.
 
     NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_jacking.py --cells-per-radius 6 [--penetration 1.2]
-        [--scaling 10] [--velocity 0.5] [--rim base|split|shaft]
+        [--scaling 10] [--velocity 0.5] [--base band|edge] [--rim base|split|shaft]
 
 Prints, at every 0.1 m of base depth, q_b (MPa) and q_s (kPa), each the mean over the steps within ±0.025 m
 of that depth (the base crosses a node row every a/n: the instantaneous values ripple with that period),
@@ -38,6 +38,7 @@ def run(
     scaling: float = 10.0,
     velocity: float = 0.5,
     rim: str = "base",
+    base: str = "band",
     container_radius: float = 4.0,
     container_depth: float = 6.0,
     every: float = 0.1,
@@ -62,7 +63,9 @@ def run(
     layers = [(layer.top, sc.soil.void_ratio_of(layer, mat)) for layer in sc.soil.layers]
     f.geostatic(layers, k0=sc.initial.k0, intergranular=sc.initial.intergranular_strain)
     mu = sc.friction_coefficient()
-    c = AxisymmetricPileContact(f, RigidPileRZ(RADIUS, 0.0), friction=mu, base_friction=mu, rim=rim)
+    c = AxisymmetricPileContact(
+        f, RigidPileRZ(RADIUS, 0.0), friction=mu, base_friction=mu, rim=rim, base=base
+    )
     depth, qb, qs = [], [], []
 
     def record(c):
@@ -72,7 +75,9 @@ def run(
 
     if verbose:
         print(g.describe())
-        print(f"S = {scaling:g}, v = {velocity:g} m/s, μ = {mu:.3f}, rim = {rim}, Δt₀ = {f.dt:.3g} s")
+        print(
+            f"S = {scaling:g}, v = {velocity:g} m/s, μ = {mu:.3f}, base = {base}, rim = {rim}, Δt₀ = {f.dt:.3g} s"
+        )
     t0 = time.perf_counter()
     jack(c, penetration, velocity, ramp=0.05, callback=record)
     wall = time.perf_counter() - t0
@@ -110,10 +115,11 @@ def main() -> None:
     ap.add_argument("--scaling", type=float, default=10.0, help="MGS factor S")
     ap.add_argument("--velocity", type=float, default=0.5, help="m/s")
     ap.add_argument("--rim", default="base", choices=("base", "split", "shaft"))
+    ap.add_argument("--base", default="band", choices=("band", "edge"))
     a = ap.parse_args()
     if not (a.cells_per_radius >= 1 and a.penetration > 0 and math.isfinite(a.penetration)):
         ap.error("cells per radius ≥ 1 and a positive penetration, please")
-    run(a.cells_per_radius, a.penetration, a.scaling, a.velocity, a.rim)
+    run(a.cells_per_radius, a.penetration, a.scaling, a.velocity, a.rim, a.base)
 
 
 if __name__ == "__main__":
