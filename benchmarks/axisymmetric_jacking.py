@@ -39,6 +39,7 @@ def run(
     velocity: float = 0.5,
     rim: str = "base",
     base: str = "band",
+    safety_factor: float | None = None,
     container_radius: float = 4.0,
     container_depth: float = 6.0,
     every: float = 0.1,
@@ -54,7 +55,7 @@ def run(
     )  # fmt: skip
     s = sc.solver
     settings = SolverSettings(
-        safety_factor=s.safety_factor, hourglass=s.hourglass, hourglass_stiffness=s.hourglass_stiffness,
+        safety_factor=s.safety_factor if safety_factor is None else safety_factor, hourglass=s.hourglass, hourglass_stiffness=s.hourglass_stiffness,
         bulk_viscosity_linear=s.bulk_viscosity_linear, bulk_viscosity_quadratic=s.bulk_viscosity_quadratic,
         gravity=s.gravity, remap_courant=s.remap_courant, soil_substep=s.soil_substep,
     )  # fmt: skip
@@ -116,10 +117,11 @@ def main() -> None:
     ap.add_argument("--velocity", type=float, default=0.5, help="m/s")
     ap.add_argument("--rim", default="base", choices=("base", "split", "shaft"))
     ap.add_argument("--base", default="band", choices=("band", "edge"))
+    ap.add_argument("--safety-factor", type=float, default=None, help="Δt = this × the stable step (0.9)")
     a = ap.parse_args()
     if not (a.cells_per_radius >= 1 and a.penetration > 0 and math.isfinite(a.penetration)):
         ap.error("cells per radius ≥ 1 and a positive penetration, please")
-    run(a.cells_per_radius, a.penetration, a.scaling, a.velocity, a.rim, a.base)
+    run(a.cells_per_radius, a.penetration, a.scaling, a.velocity, a.rim, a.base, a.safety_factor)
 
 
 if __name__ == "__main__":
