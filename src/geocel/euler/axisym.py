@@ -39,9 +39,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..materials.flags import SUBSTEP_LIMIT
 from ..materials.kernels import cell_update
 from ..materials.tensor import KERNEL_OPTIONS
-from .lagrange import G_FROM_M, PHI_MIN, subpoint_limit
+from .lagrange import G_FROM_M, MAX_CELL_SUBSTEPS, PHI_MIN, subpoint_limit, substeps
 
 #: components of the hourglass control kept after the material state (generalised stresses of the r and z
 #: modes, per unit soil volume, Pa)
@@ -227,9 +228,12 @@ def update_cells_rz(
     hoff,
     mf,
     cf,
+    max_sub,
 ):
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (module
-    docstring: D = (D_rr, D_θθ, D_zz, 0, D_rz, 0)Δt, W_13 Δt; the model given by ``tag``), the bulk-viscosity
+    docstring: D = (D_rr, D_θθ, D_zz, 0, D_rz, 0)Δt, W_13 Δt; the model given by ``tag``; in
+    :func:`~geocel.euler.lagrange.substeps` equal explicit substeps of at most the strain ``max_sub``, as in
+    3D), the bulk-viscosity
     pressure q and the hourglass resistance for the next nodal pass (``hg``: per unit cell mass, so a cell
     the remap has nearly emptied pushes proportionally less). Cells below :data:`PHI_MIN` are set
     stress-free. ``state[..., hoff:hoff + 2]`` holds the hourglass generalised stresses (Pa).
@@ -270,7 +274,10 @@ def update_cells_rz(
                 L, qh = velocity_gradient_rz(v, i, k, h_r, h_z, r_c)
                 D = (L[0] * dt, L[4] * dt, L[3] * dt, 0.0, 0.5 * (L[1] + L[2]) * dt, 0.0)
                 W = (0.0, 0.5 * (L[1] - L[2]) * dt, 0.0)
-                M, f = cell_update(tag, prm, s2, st2, c, D, W, 1, dbuf, wbuf)
+                nsub = substeps(D, max_sub)
+                M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, dbuf, wbuf)
+                if nsub == MAX_CELL_SUBSTEPS:
+                    f |= SUBSTEP_LIMIT
                 flags[i, k] = f
                 modulus[i, k] = M
                 rho = mass[i, k] / vs

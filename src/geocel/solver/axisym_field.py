@@ -73,6 +73,7 @@ class AxisymmetricField:
             raise ValueError(f"mass_gravity = {self.scaling} must be ≥ 1")
         self.model_id = self.material.model_id
         self._strength = self.material.strength_line()
+        self._max_substep = self.material.substep_strain(self.settings.soil_substep)
         self.model_tag = model_tag(self.model_id)
         self.prm = self.material.to_array()
         self.gravity = self.settings.gravity / self.scaling
@@ -114,6 +115,9 @@ class AxisymmetricField:
         self.mass_tiny = 0.0
         self.initial_mass = 0.0
         self.timers: dict[str, float] = dict.fromkeys(("nodes", "cells", "remap", "bookkeeping"), 0.0)
+        #: contact with a pile (:class:`geocel.contact.axisym.AxisymmetricPileContact`), applied to the trial
+        #: velocities of every step
+        self.contact = None
 
     # --- initial state ------------------------------------------------------------------------------------------
     def fill_below(self, surface: float = 0.0) -> None:
@@ -206,16 +210,20 @@ class AxisymmetricField:
         dt = self.dt if dt is None else dt
         tm = self.timers
         t0 = time.perf_counter()
+        if self.contact is not None:
+            self.contact.before_nodes()
         ke, dEi, dEv, dEh, wg, wx = advance_nodes_rz(
             self.hr, self.hz, self.rc, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass, self.v,
             self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
             self.mass_tiny,
         )  # fmt: skip
+        if self.contact is not None:
+            self.contact.apply(dt)
         t1 = time.perf_counter()
         dtc, arg = update_cells_rz(
             self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
             self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
-            st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength,
+            st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength, self._max_substep,
         )  # fmt: skip
         if not (np.isfinite(ke) and np.isfinite(dEi)):
             raise InstabilityError(
@@ -229,6 +237,8 @@ class AxisymmetricField:
                 self.u_remap[...] = 0.0
             courant = _accumulate_rz(*self._node_reciprocal, self.v, dt, self.u_remap)
             if not deferred or courant >= st.remap_courant:
+                if self.contact is not None:
+                    self.contact.before_remap(self.u_remap)
                 self.remap(self.u_remap)
         t3 = time.perf_counter()
         e = self.energy

@@ -1,0 +1,128 @@
+"""The Deeks & White pile jacked into the axisymmetric (r–z) soil: q_b and q_s against depth, for grid studies.
+
+Rigid closed-ended pile, D = 0.6 m, flat base, jacked from the ground surface into very dense Fraction E sand
+(hypoplasticity with intergranular strain, I_D = 0.93, K0 = 0.5, μ = tan(2/3 φ_c): the ``deeks-white`` preset),
+in a container of radius 4 m and depth 6 m (lateral roller, fixed base, 0.5 m of void above), MGS factor S,
+at ``velocity`` after a half-cosine start over 0.05 m. The grid has ``n`` cells per pile radius (fine cells
+a/n out to 4a and down to the final depth + 1 m, then growing by 15 % per cell up to 0.5 m), so the shaft is
+the node line r = a. Contact: :mod:`geocel.contact.axisym`.
+
+    NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_jacking.py --cells-per-radius 6 [--penetration 1.2]
+        [--scaling 10] [--velocity 0.5] [--base band|edge] [--rim base|split|shaft]
+
+Prints, at every 0.1 m of base depth, q_b (MPa) and q_s (kPa), each the mean over the steps within ±0.025 m
+of that depth (the base crosses a node row every a/n: the instantaneous values ripple with that period),
+then the cells, steps, wall time, mass error, soil left inside the pile and the largest friction excess.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+from geocel.benchmark.presets import preset_scenario
+from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
+from geocel.grid.axisym import AxisymmetricGrid
+from geocel.solver.axisym_field import AxisymmetricField
+from geocel.solver.field import SolverSettings
+
+RADIUS = 0.3  # m, pile radius (D = 0.6 m)
+
+
+def run(
+    cells_per_radius: int = 3,
+    penetration: float = 1.2,
+    scaling: float = 10.0,
+    velocity: float = 0.5,
+    rim: str = "base",
+    base: str = "band",
+    safety_factor: float | None = None,
+    container_radius: float = 4.0,
+    container_depth: float = 6.0,
+    every: float = 0.1,
+    verbose: bool = True,
+) -> dict:
+    sc = preset_scenario("deeks-white")
+    mat = sc.soil.material
+    h = RADIUS / cells_per_radius
+    g = AxisymmetricGrid.graded(
+        radius=container_radius, soil_depth=container_depth, void_height=0.5, fine_size=h,
+        fine_radius=4.0 * RADIUS, fine_depth=min(penetration + 1.0, container_depth), growth=1.15,
+        max_size=0.5,
+    )  # fmt: skip
+    s = sc.solver
+    settings = SolverSettings(
+        safety_factor=s.safety_factor if safety_factor is None else safety_factor, hourglass=s.hourglass, hourglass_stiffness=s.hourglass_stiffness,
+        bulk_viscosity_linear=s.bulk_viscosity_linear, bulk_viscosity_quadratic=s.bulk_viscosity_quadratic,
+        gravity=s.gravity, remap_courant=s.remap_courant, soil_substep=s.soil_substep,
+    )  # fmt: skip
+    f = AxisymmetricField(g, mat, scaling=scaling, settings=settings)
+    f.fill_below(0.0)
+    layers = [(layer.top, sc.soil.void_ratio_of(layer, mat)) for layer in sc.soil.layers]
+    f.geostatic(layers, k0=sc.initial.k0, intergranular=sc.initial.intergranular_strain)
+    mu = sc.friction_coefficient()
+    c = AxisymmetricPileContact(
+        f, RigidPileRZ(RADIUS, 0.0), friction=mu, base_friction=mu, rim=rim, base=base
+    )
+    depth, qb, qs = [], [], []
+
+    def record(c):
+        depth.append(c.pile.embedment)
+        qb.append(c.qb())
+        qs.append(c.qs())
+
+    if verbose:
+        print(g.describe())
+        print(
+            f"S = {scaling:g}, v = {velocity:g} m/s, μ = {mu:.3f}, base = {base}, rim = {rim}, Δt₀ = {f.dt:.3g} s"
+        )
+    t0 = time.perf_counter()
+    jack(c, penetration, velocity, ramp=0.05, callback=record)
+    wall = time.perf_counter() - t0
+    depth, qb, qs = np.array(depth), np.array(qb), np.array(qs)
+    rows = []
+    for d in np.arange(every, penetration + 1e-9, every):
+        sel = np.abs(depth - d) <= 0.025
+        rows.append((d, float(qb[sel].mean()), float(qs[sel].mean())))
+    out = {
+        "rows": rows,
+        "cells": g.n_cells,
+        "steps": f.step_count,
+        "wall_s": wall,
+        "mass_error": f.mass_error(),
+        "soil_inside": c.soil_inside() / c.pile_volume(),
+        "friction_excess": c.worst_friction_excess,
+        "energy_error": f.energy_balance_error() / max(f.energy["external_work"], 1e-300),
+    }
+    if verbose:
+        print(" depth (m)   q_b (MPa)   q_s (kPa)")
+        for d, b, sh in rows:
+            print(f"{d:9.2f} {b / 1e6:11.3f} {sh / 1e3:11.2f}")
+        print(
+            f"cells {out['cells']}, steps {out['steps']}, wall {wall:.1f} s, mass error {out['mass_error']:.1e}, "
+            f"soil inside the pile {100 * out['soil_inside']:.3f} % of its embedded volume, friction excess "
+            f"{out['friction_excess']:.1e}, energy balance {100 * out['energy_error']:.2f} % of the work"
+        )
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cells-per-radius", type=int, default=3)
+    ap.add_argument("--penetration", type=float, default=1.2, help="m")
+    ap.add_argument("--scaling", type=float, default=10.0, help="MGS factor S")
+    ap.add_argument("--velocity", type=float, default=0.5, help="m/s")
+    ap.add_argument("--rim", default="base", choices=("base", "split", "shaft"))
+    ap.add_argument("--base", default="band", choices=("band", "edge"))
+    ap.add_argument("--safety-factor", type=float, default=None, help="Δt = this × the stable step (0.9)")
+    a = ap.parse_args()
+    if not (a.cells_per_radius >= 1 and a.penetration > 0 and math.isfinite(a.penetration)):
+        ap.error("cells per radius ≥ 1 and a positive penetration, please")
+    run(a.cells_per_radius, a.penetration, a.scaling, a.velocity, a.rim, a.base, a.safety_factor)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,507 @@
+"""Contact of a rigid pile with the axisymmetric (r–z) soil (issue 17, second increment).
+
+The grid is aligned with the pile: its radius a is a node line r = r[i_a] (the fine zone has cells of a/n),
+so the shaft is exactly the column of nodes i = i_a and no cell is cut by it. The pile occupies r < a above
+its flat base z_b; only the base moves through cells. With k_c the node row at or just below the base
+(z[k_c] ≤ z_b < z[k_c + 1]), the soil nodes in contact are projected on the trial velocities of the
+Lagrangian phase (velocity projection with impulses, as in 3D, DESIGN.md §4.5):
+
+* **shaft** (i = i_a, k > k_c): Signorini's condition on the radial velocity (the pile's is 0): an
+  approaching node (v_r < 0) gets Δv_r = −v_r, a separating one is left free; Coulomb friction then removes
+  the vertical velocity relative to the pile, v_z − v_p, up to |Δv_z| ≤ μ Δv_r. The impulses are the normal
+  and friction forces f_n = m Δv_r/Δt, f_t = m Δv_z/Δt of the soil's own radial momentum, so |f_t| ≤ μ f_n
+  at every node and step (checked);
+* **base** (i < i_a, k = k_c) **and the pile's interior** (i < i_a, k > k_c, the nodes that carry soil of
+  the cells the base is in): Signorini's condition on v_z − v_p with the base normal (0, −1), friction
+  ``base_friction`` on v_r (0: smooth, inf: rough). The node row k_c moves with the pile, so the base acts
+  on the soil up to a cell below its true elevation (z_b − z[k_c] ∈ [0, h), a "band" of one cell as in 3D);
+  the soil of the cells the base is in (i < i_a, row k_c) moves with the pile and leaves them through their
+  bottom face at the base's rate. ``base = "edge"`` (option) constrains instead the point z_b of each
+  vertical edge (i, k_c)–(i, k_c + 1), shared by the node below and the node above it by the interpolation
+  weights as the 3D "edge" contact does, with the node above (inside the pile) also kept from moving up
+  into it (three Gauss–Seidel passes): no lead, no jolt when the base crosses a node row, and the punch
+  limit is grid-converged at 8 cells per radius, but soil collects in the cell under the base's edge
+  (i_a − 1, k_c), whose corners move with three different conditions: up to 4 % of the embedded volume at
+  3 cells per radius (hypoplastic jacking), 0–1.7 % on the punch;
+* **rim** (i = i_a, k = k_c), the node under the pile's corner, standing for soil on both sides of r = a
+  (``rim``): "base" (default) gives it the base's condition, so the base acts about half a cell wider than
+  a (q_b converges from above: the punch limit is +12 % at 8 cells per radius, +7 % at 16, +2 % at 32 of
+  the converged value); "shaft" gives it the shaft's condition only (half a cell narrower, from below);
+  "split" moves only the part of its mass under the base (from the cells r < a) towards the pile's
+  velocity — its velocity change is scaled by that fraction, about ½. "split" is not a constraint but a
+  compromise: the punch limit is within 3 % of the converged value from 8 cells per radius on, but the rim
+  node yields a little under a static load (a wished-in-place pile at rest creeps). In all three v_r ≥ 0
+  there (no soil into the pile under its corner);
+* the pile receives −(impulse)/Δt: base and shaft forces per radian (× 2π for the pile), q_b = F_b,z/(πa²),
+  q_s = F_s,z/(2πa L) with L the embedded length below z = 0.
+
+**No soil into the pile.** The pile's cells (i < i_a above the base row) are empty and an empty cell gives
+nothing in the remap, so soil can only enter them through a face whose mesh motion points into the pile.
+Before each remap the accumulated mesh motion u (:meth:`AxisymmetricPileContact.before_remap`) is made to
+point nowhere into the pile: u_r ≥ 0 on the shaft's column (the projection already keeps v_r ≥ 0 there;
+this matters only for a node that became a shaft node between two remaps), no upward motion relative to
+the pile at the nodes above the base (i < i_a) and at the shaft node at the pile's corner (it is also the
+top corner of the cell under the base's edge, and the soil beside the shaft flows up past the corner), and
+a rim node that lags the base ("split", "shaft") is moved with it, so the soil of the cell under the base's
+edge leaves it with the base. The strain of the step is that of the projected velocities; only the
+transport follows the pile at these nodes. Nothing is relocated after the remap;
+:meth:`AxisymmetricPileContact.soil_inside` measures what ends up inside anyway: with the defaults (band,
+rim "base") at most 0.002 % of the embedded volume in the jacking benchmark (3–12 cells per radius) and
+0 on the punch; "split" 0.1–1.9 %, "shaft" up to 1 %, "edge" up to 4 % (above).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ..bodies.pile import head_velocity
+from ..euler.axisym import node_force_rz
+from ..euler.lagrange import PHI_MIN
+from ..materials.tensor import KERNEL_OPTIONS
+
+#: rim node treatments (``rim``, module docstring), in the order of the kernel's codes 0, 1, 2
+RIM_OPTIONS = ("shaft", "base", "split")
+#: base formulations (``base``, module docstring)
+BASE_OPTIONS = ("band", "edge")
+
+
+@dataclass
+class RigidPileRZ:
+    """A rigid, closed-ended pile with a flat base on the axis: radius a (m), base elevation z_b (m, the
+    ground surface is z = 0) and vertical velocity (m/s, + up), prescribed by :meth:`advance`."""
+
+    radius: float
+    z_base: float
+    velocity: float = 0.0
+    time: float = 0.0
+
+    @property
+    def embedment(self) -> float:
+        """Depth of the base below the ground surface (m)."""
+        return -self.z_base
+
+    def advance(self, dt: float, v_head: float) -> None:
+        """Move down at ``v_head`` (m/s, > 0 downwards) over Δt: the velocity of the step n+½."""
+        self.velocity = -float(v_head)
+        self.z_base -= v_head * dt
+        self.time += dt
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def _base_node(i, k, m, o0, o1, vp, n0, n1, fix, v, c, out):
+    """Write the projected velocity (n0, n1) of node (i, k) (mass m, trial (o0, o1)) unless the grid holds
+    a component, and add the force on the pile to the base's outputs."""
+    if fix[i, k, 0]:
+        n0 = o0
+    if fix[i, k, 1]:
+        n1 = o1
+    v[i, k, 0] = n0
+    v[i, k, 1] = n1
+    fr = m * (n0 - o0) * c  # on the soil
+    fz = m * (n1 - o1) * c
+    out[0] -= fr
+    out[1] -= fz
+    out[4] += fz * vp
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def _signorini_base(i, k, nmass, v, fix, mtiny, vp, mu_b, kap, c, out):
+    """Signorini's condition of node (i, k) against the base (normal (0, −1)), friction μ_b on v_r; the
+    velocity change scaled by ``kap`` (1: the full projection)."""
+    m = nmass[i, k]
+    if m <= mtiny:
+        return
+    o0 = v[i, k, 0]
+    o1 = v[i, k, 1]
+    w = o1 - vp  # > 0: the soil moves up into the base
+    if w <= 0.0:
+        return
+    w *= kap
+    lim = mu_b * w
+    n0 = 0.0 if abs(o0) <= lim else (o0 - lim if o0 > 0.0 else o0 + lim)
+    _base_node(i, k, m, o0, o1, vp, n0, o1 - w, fix, v, c, out)
+    out[5] += 1.0
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def _edge_base(i, kc, t, nmass, v, fix, mtiny, vp, mu_b, c, out):
+    """Signorini and friction at the point where the base crosses the edge (i, kc)–(i, kc+1), at t of the
+    edge: the impulse λ is shared by the interpolation weights (Δv_a = (1 − t) λ/m_a, Δv_b = t λ/m_b)."""
+    ma = nmass[i, kc]
+    mb = nmass[i, kc + 1]
+    wa = 1.0 - t if mb > mtiny else 1.0  # a massless node has no velocity of its own
+    if ma <= mtiny:
+        wa = 0.0
+    wb = 1.0 - wa
+    fa = wa / ma if ma > mtiny else 0.0
+    fb = wb / mb if mb > mtiny else 0.0
+    W = wa * fa + wb * fb
+    if W <= 0.0:
+        return
+    a0 = v[i, kc, 0]
+    a1 = v[i, kc, 1]
+    b0 = v[i, kc + 1, 0]
+    b1 = v[i, kc + 1, 1]
+    w = wa * a1 + wb * b1 - vp
+    if w <= 0.0:
+        return
+    lam = w / W
+    vr = wa * a0 + wb * b0
+    lim = mu_b * lam
+    lt = abs(vr) / W
+    jr = -(1.0 if lt <= lim else lim / lt) * vr / W
+    if fa > 0.0:
+        _base_node(i, kc, ma, a0, a1, vp, a0 + fa * jr, a1 - fa * lam, fix, v, c, out)
+    if fb > 0.0:
+        _base_node(i, kc + 1, mb, b0, b1, vp, b0 + fb * jr, b1 - fb * lam, fix, v, c, out)
+    out[5] += 1.0
+
+
+@njit(**KERNEL_OPTIONS)
+def project_pile_rz(ia, kc, t_edge, nmass, cmass, v, fix, mtiny, vp, mu, mu_b, rim, dt, fn, ft, out):
+    """Velocity projection of the soil nodes in contact with the rigid pile (module docstring), in place on v.
+
+    ``ia``: node column of the shaft; ``kc``: node row at or below the base; ``t_edge``: < 0 for the band
+    formulation, else where the base crosses the edges above row kc, (z_b − z_kc)/h;
+    ``vp``: the pile's vertical velocity; ``mu`` and ``mu_b``: shaft and base friction; ``rim``: the base's
+    condition at the corner r = a (0: not, 1: in full, 2: on the part of the rim nodes' mass under the base,
+    from the cells r < a of ``cmass``, the cell masses). Outputs (per radian, forces of the soil ON THE PILE,
+    N/rad): ``fn``/``ft`` (nz+1) the normal (≥ 0: pressure) and vertical friction force at every shaft node
+    (0 elsewhere); ``out`` (6): base (r, z), shaft (r, z), Σ f·v_pile of the forces on the soil (their
+    power on the pile's motion) and the number of constraints that acted."""
+    nz1 = nmass.shape[1]
+    for d in range(6):
+        out[d] = 0.0
+    for k in range(nz1):
+        fn[k] = 0.0
+        ft[k] = 0.0
+    c = 1.0 / dt
+    # base (row kc), the pile's interior above it (i < ia) and the rim node (ia, kc): Signorini on v_z − v_p
+    # with the base's normal (0, −1), friction μ_b on v_r
+    if t_edge < 0.0:
+        for i in range(ia):
+            for k in range(kc, nz1):
+                _signorini_base(i, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out)
+    else:
+        # the base crosses the vertical edges (i, kc)–(i, kc+1) at t: the soil there moves with
+        # (1 − t) v_a + t v_b; Signorini and friction at that point, the impulse shared by the weights; the
+        # node above (inside the pile) may not move up into it either: Gauss–Seidel passes over both
+        for _sweep in range(3):
+            for i in range(ia):
+                _edge_base(i, kc, t_edge, nmass, v, fix, mtiny, vp, mu_b, c, out)
+            for i in range(ia):
+                for k in range(kc + 1, nz1):
+                    _signorini_base(i, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out)
+    if rim > 0:
+        m = nmass[ia, kc]
+        kap = 1.0
+        if rim == 2 and m > mtiny:
+            # the rim node stands for the soil on both sides of r = a: only the part of its mass under the
+            # base (from the cells r < a) is moved with it, so the base acts over r ≤ a, not wider
+            kap = 0.25 * (cmass[ia - 1, kc] + (cmass[ia - 1, kc - 1] if kc > 0 else 0.0)) / m
+        _signorini_base(ia, kc, nmass, v, fix, mtiny, vp, mu_b, kap, c, out)
+    if rim > 0 and nmass[ia, kc] > mtiny and v[ia, kc, 0] < 0.0 and not fix[ia, kc, 0]:
+        # the rim node is on the shaft's line: no soil into the pile under its corner
+        out[0] += nmass[ia, kc] * v[ia, kc, 0] * c
+        v[ia, kc, 0] = 0.0
+    # shaft
+    i = ia
+    for k in range(kc + (1 if rim > 0 else 0), nz1):
+        m = nmass[i, k]
+        if m <= mtiny:
+            continue
+        o0 = v[i, k, 0]
+        o1 = v[i, k, 1]
+        if o0 >= 0.0 or fix[i, k, 0]:
+            continue  # separating (or held by the grid): no contact force
+        dvn = -o0
+        t = o1 - vp
+        lim = mu * dvn
+        dvt = -t if abs(t) <= lim else (-lim if t > 0.0 else lim)  # |Δv_z| ≤ μ Δv_r
+        if fix[i, k, 1]:
+            dvt = 0.0
+        v[i, k, 0] = 0.0
+        v[i, k, 1] = o1 + dvt
+        f_n = m * dvn * c  # on the soil, outwards
+        f_t = m * dvt * c  # (from the impulse itself, not a difference of velocities: exact bound)
+        fn[k] = f_n  # on the pile: the pressure −f_n e_r, reported as its magnitude
+        ft[k] = -f_t
+        out[2] -= f_n
+        out[3] -= f_t
+        out[4] += f_t * vp
+        out[5] += 1.0
+
+
+@njit(**KERNEL_OPTIONS)
+def contact_work_rz(
+    ia, kc, hr, hz, rc, Vs, mass, stress, q, hg, nmass, mtiny, gravity, dt, v_old, v_trial, v, out
+):
+    """Energy bookkeeping of the projection (the r–z form of :func:`geocel.contact.kernels.contact_work`):
+    at a projected node every force does work with (v^{n−½} + v^{n+½})/2 instead of the trial velocity.
+    ``out`` (5) receives the corrections to the work of the stress, viscous, hourglass and gravity forces
+    and the work of the contact force on the soil (J/rad). ``v_old``/``v_trial`` hold the nodes
+    [0, ia] × [kc, nz]."""
+    nz1 = nmass.shape[1]
+    gr_ = 0.5 / hr
+    gz_ = 0.5 / hz
+    nr_ = 0.25 / rc
+    for d in range(5):
+        out[d] = 0.0
+    h = 0.5 * dt
+    for i in range(ia + 1):
+        for k in range(kc, nz1):
+            m = nmass[i, k]
+            if m <= mtiny:
+                continue
+            kk = k - kc
+            dr = v[i, k, 0] - v_trial[i, kk, 0]
+            dz = v[i, k, 1] - v_trial[i, kk, 1]
+            if dr == 0.0 and dz == 0.0:
+                continue
+            fs, fq, fh = node_force_rz(i, k, gr_, gz_, nr_, Vs, mass, stress, q, hg)
+            out[0] -= (fs[0] * dr + fs[1] * dz) * h
+            out[1] -= (fq[0] * dr + fq[1] * dz) * h
+            out[2] -= (fh[0] * dr + fh[1] * dz) * h
+            out[3] -= m * gravity * dz * h
+            out[4] += 0.5 * m * (dr * (v_old[i, kk, 0] + v[i, k, 0]) + dz * (v_old[i, kk, 1] + v[i, k, 1]))
+
+
+class AxisymmetricPileContact:
+    """Contact of a :class:`RigidPileRZ` with an :class:`~geocel.solver.axisym_field.AxisymmetricField`
+    (module docstring). Setting it up attaches it to the field (``field.contact``), whose step then calls
+    :meth:`before_nodes`, :meth:`apply` and :meth:`before_remap`.
+
+    ``friction``: shaft μ (≥ 0); ``base_friction``: base μ (0 smooth, ``math.inf`` rough); ``rim``: the
+    node under the base's corner, "split", "base" or "shaft" (module docstring)."""
+
+    def __init__(
+        self,
+        field,
+        pile: RigidPileRZ,
+        friction: float,
+        base_friction: float = 0.0,
+        rim: str = "base",
+        base: str = "band",
+    ) -> None:
+        for name, mu in (("friction", friction), ("base_friction", base_friction)):
+            if not (mu >= 0.0) or (name == "friction" and not math.isfinite(mu)):
+                raise ValueError(f"contact {name} = {mu!r} must be ≥ 0")
+        if base not in BASE_OPTIONS:
+            raise ValueError(f"base = {base!r}: choose one of {', '.join(BASE_OPTIONS)}")
+        if rim not in RIM_OPTIONS:
+            raise ValueError(f"rim = {rim!r}: choose one of {', '.join(RIM_OPTIONS)}")
+        g = field.grid
+        ia = int(np.argmin(np.abs(g.r - pile.radius)))
+        if abs(g.r[ia] - pile.radius) > 1e-9 * pile.radius or ia == 0:
+            raise ValueError(
+                f"the pile radius {pile.radius} m must be a node line of the grid (the nearest is "
+                f"r = {g.r[ia]:.6g} m): use fine cells of radius/n"
+            )
+        self.field = field
+        self.pile = pile
+        self.mu = float(friction)
+        self.mu_base = float(base_friction)
+        self.rim = rim
+        self.base = base
+        self.ia = ia
+        nz1 = g.nz + 1
+        #: per shaft node, the last step's normal (pressure) and vertical friction force on the pile, N/rad
+        self.shaft_normal = np.zeros(nz1)
+        self.shaft_friction = np.zeros(nz1)
+        self._out = np.zeros(6)
+        self._work = np.zeros(5)
+        self._v_old = np.zeros((0, 0, 2))
+        self._kc = -1
+        self._pile_motion = 0.0  # the pile's vertical displacement since the last remap, m
+        self._z_remap = pile.z_base  # the base's elevation at the last remap, m
+        #: forces of the last step on the whole pile (N, × 2π): base (r, z) and shaft (normal, z)
+        self.base_force = np.zeros(2)
+        self.shaft_force = np.zeros(2)
+        self.contact_nodes = 0
+        self.soil_work = 0.0
+        self.friction_work = 0.0
+        #: largest |f_t| − μ f_n over every shaft node and step, relative to the node's f_n (≤ round-off)
+        self.worst_friction_excess = 0.0
+        #: mesh motion into the pile removed before the remaps (m, summed over the nodes and remaps)
+        self.clamped_motion = 0.0
+        field.contact = self
+
+    # --- geometry ---------------------------------------------------------------------------------------
+    def base_row(self) -> int:
+        """Node row k_c at or just below the base (z[k_c] ≤ z_b, to 1e-9 of a cell)."""
+        g = self.field.grid
+        tol = 1e-9 * float(g.hz.min())
+        k = int(np.searchsorted(g.z, self.pile.z_base + tol, "right")) - 1
+        if k < 0:
+            raise ValueError(f"the pile's base z = {self.pile.z_base:.6g} m is below the grid")
+        return k
+
+    def pile_fraction(self, z_base: float | None = None) -> np.ndarray:
+        """Fraction of every cell inside the pile (nr, nz): the columns r < a above the base (at ``z_base``,
+        default the pile's), exact."""
+        g = self.field.grid
+        zb = self.pile.z_base if z_base is None else z_base
+        out = np.zeros(g.shape)
+        out[: self.ia, :] = np.clip((g.z[1:] - zb) / g.hz, 0.0, 1.0)[None, :]
+        return out
+
+    def pile_volume(self) -> float:
+        """Embedded volume of the pile below the ground surface z = 0 (m³, the whole pile)."""
+        return math.pi * self.pile.radius**2 * max(self.pile.embedment, 0.0)
+
+    def wish_in_place(self) -> float:
+        """Take the soil out of the pile's volume after the geostatic state is built (the soil below the
+        base keeps its overburden stress: the pile carries it), and reset the field's nodal masses and
+        initial mass. Returns the removed soil volume (m³, the whole ring)."""
+        f = self.field
+        free = (1.0 - self.pile_fraction()) * f.volume
+        before = float(f.Vs.sum())
+        keep = np.where(f.Vs > 0.0, np.minimum(f.Vs, free) / np.maximum(f.Vs, 1e-300), 0.0)
+        f.Vs *= keep
+        f.mass *= keep
+        empty = f.Vs < PHI_MIN * f.volume
+        f.Vs[empty] = 0.0
+        f.mass[empty] = 0.0
+        f.stress[empty] = 0.0
+        f.state[empty] = 0.0
+        f.initialise()
+        return 2.0 * math.pi * (before - float(f.Vs.sum()))
+
+    def soil_inside(self) -> float:
+        """Soil volume inside the pile, Σ max(0, V_s − (1 − φ_pile) V) (m³, the whole ring), with the pile
+        where it was at the last remap: the soil is where that remap put it (with the deferred remap the pile
+        has moved on by up to ``remap_courant`` of a cell since)."""
+        f = self.field
+        over = np.minimum(f.Vs, f.volume) - (1.0 - self.pile_fraction(self._z_remap)) * f.volume
+        return 2.0 * math.pi * float(np.maximum(over, 0.0).sum())
+
+    # --- the step -----------------------------------------------------------------------------------------
+    def step(self, v_head: float) -> None:
+        """One step of the jacked pile and the soil: the pile moves at ``v_head`` (m/s, > 0 down) over the
+        field's Δt, then the field steps (with this contact)."""
+        dt = self.field.dt
+        self.pile.advance(dt, v_head)
+        self.field.step(dt)
+
+    def before_nodes(self) -> None:
+        self._kc = kc = self.base_row()
+        self._v_old = self.field.v[: self.ia + 1, kc:].copy()
+
+    def apply(self, dt: float) -> None:
+        """Project the trial velocities (in place) and record the forces and the work of the step."""
+        f = self.field
+        if self._kc < 0:
+            self.before_nodes()
+        kc, ia = self._kc, self.ia
+        self._kc = -1
+        v_trial = f.v[: ia + 1, kc:].copy()
+        out = self._out
+        fn, ft = self.shaft_normal, self.shaft_friction
+        vp = self.pile.velocity
+        t_edge = -1.0
+        if self.base == "edge" and kc + 1 <= f.grid.nz:
+            t_edge = min(max((self.pile.z_base - f.grid.z[kc]) / f.grid.hz[kc], 0.0), 1.0)
+        project_pile_rz(
+            ia, kc, t_edge, f.nmass, f.mass, f.v, f.fix, f.mass_tiny, vp, self.mu, self.mu_base,
+            RIM_OPTIONS.index(self.rim), dt,
+            fn, ft, out,
+        )  # fmt: skip
+        excess = np.abs(ft) - self.mu * fn
+        if fn.any():
+            worst = float((excess / np.maximum(fn, 1e-300))[fn > 0].max())
+            self.worst_friction_excess = max(self.worst_friction_excess, worst)
+            if worst > 1e-9:
+                raise RuntimeError(f"shaft friction exceeds μ × normal force by {worst:.3g} (relative)")
+        elif np.any(ft != 0.0):
+            raise RuntimeError("shaft friction without a normal force")
+        two_pi = 2.0 * math.pi
+        self.base_force[:] = two_pi * out[0], two_pi * out[1]
+        self.shaft_force[:] = two_pi * float(fn.sum()), two_pi * out[3]
+        self.contact_nodes = int(out[5])
+        self._pile_motion += vp * dt
+        w = self._work
+        contact_work_rz(
+            ia, kc, f.hr, f.hz, f.rc, f.Vs, f.mass, f.stress, f.q, f.hg, f.nmass, f.mass_tiny, f.gravity, dt,
+            self._v_old, v_trial, f.v, w,
+        )  # fmt: skip
+        e = f.energy
+        e["internal"] += w[0]
+        e["viscous"] += w[1]
+        e["hourglass"] += w[2]
+        e["gravity_work"] += w[3]
+        e["external_work"] += w[3] + w[4]
+        self.soil_work += w[4]
+        self.friction_work += out[4] * dt - w[4]
+
+    def before_remap(self, displacement: np.ndarray) -> None:
+        """No inward mesh motion through the shaft's faces (u_r ≥ 0 on the shaft column from the base row
+        up), so the remap cannot carry soil into the pile (module docstring)."""
+        ia, kc = self.ia, self.base_row()
+        self._z_remap = self.pile.z_base
+        col = displacement[ia, kc:, 0]
+        neg = col < 0.0
+        if neg.any():
+            self.clamped_motion -= float(col[neg].sum())
+            col[neg] = 0.0
+        # no mesh motion upwards relative to the pile through the top faces of the cells the base is in (the
+        # nodes above the base, i < i_a, and the shaft node at the pile's corner, which is also the top corner
+        # of the cell under the base's edge): the soil of those cells is not lifted into the pile
+        up = displacement[: ia + 1, kc + 1 :, 1] - self._pile_motion
+        up[ia, 1:] = 0.0
+        pos = (up > 0.0) & (self.field.nmass[: ia + 1, kc + 1 :] > self.field.mass_tiny)
+        if pos.any():
+            self.clamped_motion += float(up[pos].sum())
+            displacement[: ia + 1, kc + 1 :, 1] -= np.where(pos, up, 0.0)
+        # the rim node: where it lags the base ("split", "shaft"), the soil of the cell under the base's edge
+        # still leaves that cell with the base (the transport follows the pile there, the strain does not)
+        lag = displacement[ia, kc, 1] - self._pile_motion
+        if lag > 0.0 and self.rim != "base":
+            self.clamped_motion += lag
+            displacement[ia, kc, 1] -= lag
+        self._pile_motion = 0.0
+
+    # --- what users look at ----------------------------------------------------------------------------------
+    def embedded_length(self) -> float:
+        return max(self.pile.embedment, 0.0)
+
+    def qb(self) -> float:
+        """Base resistance F_b,z/(π a²) (Pa, positive = resistance)."""
+        return self.base_force[1] / (math.pi * self.pile.radius**2)
+
+    def qs(self) -> float:
+        """Mean shaft friction F_s,z/(2π a L) over the embedded length L (Pa, positive = resistance)."""
+        L = self.embedded_length()
+        return self.shaft_force[1] / (2.0 * math.pi * self.pile.radius * L) if L > 0.0 else 0.0
+
+    def shaft_pressure(self) -> np.ndarray:
+        """Normal stress on the shaft at every node (Pa, ≥ 0), f_n/(a h_trib) with h_trib half of each
+        adjacent cell's height."""
+        g = self.field.grid
+        trib = np.zeros(g.nz + 1)
+        trib[:-1] += 0.5 * g.hz
+        trib[1:] += 0.5 * g.hz
+        return self.shaft_normal / (self.pile.radius * trib)
+
+
+def jack(
+    contact: AxisymmetricPileContact,
+    depth: float,
+    velocity: float,
+    ramp: float = 0.0,
+    callback=None,
+) -> None:
+    """Jack the pile until its base is ``depth`` (m) below where it started, at ``velocity`` (m/s) after a
+    half-cosine start over ``ramp`` (m); ``callback(contact)`` after every step."""
+    pile, f = contact.pile, contact.field
+    z_end = pile.z_base - depth
+    t0 = f.time
+    while pile.z_base > z_end + 1e-12 * max(depth, 1.0):
+        vh = head_velocity(f.time - t0 + 0.5 * f.dt, velocity, ramp)
+        vh = min(vh, (pile.z_base - z_end) / f.dt)
+        contact.step(vh)
+        if callback is not None:
+            callback(contact)
