@@ -32,7 +32,16 @@ from ..grid.axisym import AxisymmetricGrid
 from ..materials.kernels import model_tag
 from ..materials.kernels import update_cells as material_update_cells
 from ..materials.tensor import KERNEL_OPTIONS
-from .field import E_MAX, E_MIN, ENERGY_KEYS, InstabilityError, Material, SolverSettings, node_spacing
+from .field import (
+    E_MAX,
+    E_MIN,
+    ENERGY_KEYS,
+    FieldBalances,
+    InstabilityError,
+    Material,
+    SolverSettings,
+    node_spacing,
+)
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -53,7 +62,7 @@ def _accumulate_rz(rr, rz, v, dt, u):
 
 
 @dataclass
-class AxisymmetricField:
+class AxisymmetricField(FieldBalances):
     """Soil in the r–z plane on an :class:`~geocel.grid.axisym.AxisymmetricGrid`.
 
     ``damping`` α (1/s): mass-proportional damping −α m v for quasi-static checks (dynamic relaxation), 0 in a
@@ -279,24 +288,6 @@ class AxisymmetricField:
         self.remap_count += 1
 
     # --- diagnostics ------------------------------------------------------------------------------------------
-    def energy_balance_error(self) -> float:
-        """KE + internal + dissipation + remap loss − external work (J/rad)."""
-        e = self.energy
-        return (
-            e["kinetic"]
-            + e["internal"]
-            + e["viscous"]
-            + e["hourglass"]
-            + e["remap_kinetic_loss"]
-            - e["external_work"]
-        )
-
     def soil_mass(self) -> float:
         """Soil mass per radian (kg/rad, scaled by S)."""
         return float(self.mass.sum())
-
-    def mass_error(self) -> float:
-        """Relative change of soil mass, counting mass that left through the top as kept."""
-        if self.initial_mass == 0:
-            return 0.0
-        return (self.soil_mass() + self.lost_mass - self.initial_mass) / self.initial_mass

@@ -128,8 +128,31 @@ class SolverSettings:
     soil_substep: float = 0.1
 
 
+class FieldBalances:
+    """Energy and mass balances shared by the 3D and the axisymmetric soil fields (which keep ``energy``
+    (:data:`ENERGY_KEYS`), ``initial_mass``, ``lost_mass`` and ``soil_mass()``; per radian in r–z)."""
+
+    def energy_balance_error(self) -> float:
+        """KE + internal + dissipation − external work − (kinetic energy removed by the remap), J."""
+        e = self.energy
+        return (
+            e["kinetic"]
+            + e["internal"]
+            + e["viscous"]
+            + e["hourglass"]
+            + e["remap_kinetic_loss"]
+            - e["external_work"]
+        )
+
+    def mass_error(self) -> float:
+        """Relative change of soil mass, counting mass that left through the top as kept."""
+        if self.initial_mass == 0:
+            return 0.0
+        return (self.soil_mass() + self.lost_mass - self.initial_mass) / self.initial_mass
+
+
 @dataclass
-class SoilField:
+class SoilField(FieldBalances):
     grid: Grid
     material: Material
     scaling: float = 1.0
@@ -436,18 +459,6 @@ class SoilField:
         return msg, diag
 
     # --- diagnostics ------------------------------------------------------------------------------------------
-    def energy_balance_error(self) -> float:
-        """KE + internal + dissipation − external work − (kinetic energy removed by the remap), J."""
-        e = self.energy
-        return (
-            e["kinetic"]
-            + e["internal"]
-            + e["viscous"]
-            + e["hourglass"]
-            + e["remap_kinetic_loss"]
-            - e["external_work"]
-        )
-
     def soil_mass(self) -> float:
         return float(self.mass[self.active3].sum())
 
@@ -458,12 +469,6 @@ class SoilField:
         if not full.any():
             return 0.0
         return float((self.mass[full] / self.Vs[full]).max())
-
-    def mass_error(self) -> float:
-        """Relative change of soil mass, counting mass that left through the top as kept."""
-        if self.initial_mass == 0:
-            return 0.0
-        return (self.soil_mass() + self.lost_mass - self.initial_mass) / self.initial_mass
 
     def governing_cell_position(self) -> tuple[float, float, float] | None:
         if self.governing_cell < 0:
