@@ -29,7 +29,6 @@ from ..euler.axisym import (
 from ..euler.axisym_remap import remap_rz
 from ..euler.lagrange import PHI_MIN
 from ..grid.axisym import AxisymmetricGrid
-from ..materials.kernels import model_tag
 from ..materials.kernels import update_cells as material_update_cells
 from ..materials.tensor import KERNEL_OPTIONS
 from .field import (
@@ -78,15 +77,7 @@ class AxisymmetricField(FieldBalances):
 
     def __post_init__(self) -> None:
         g = self.grid
-        if self.scaling < 1.0:
-            raise ValueError(f"mass_gravity = {self.scaling} must be ≥ 1")
-        self.model_id = self.material.model_id
-        self._strength = self.material.strength_line()
-        self._max_substep = self.material.substep_strain(self.settings.soil_substep)
-        self.model_tag = model_tag(self.model_id)
-        self.prm = self.material.to_array()
-        self.gravity = self.settings.gravity / self.scaling
-        self.grain_density = self.material.grain_density * self.scaling
+        self._init_material()
         shape = g.shape
         nshape = (g.nr + 1, g.nz + 1)
         self.nstate = len(self.material.state_names)

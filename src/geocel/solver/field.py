@@ -129,8 +129,22 @@ class SolverSettings:
 
 
 class FieldBalances:
-    """Energy and mass balances shared by the 3D and the axisymmetric soil fields (which keep ``energy``
+    """Material set-up and the energy and mass balances shared by the 3D and the axisymmetric soil fields (which keep ``energy``
     (:data:`ENERGY_KEYS`), ``initial_mass``, ``lost_mass`` and ``soil_mass()``; per radian in r–z)."""
+
+    def _init_material(self) -> None:
+        """The soil model's compiled parameters, strength line, substep strain and the MGS-scaled gravity
+        and grain density (from ``material``, ``scaling`` and ``settings``)."""
+        if self.scaling < 1.0:
+            raise ValueError(f"mass_gravity = {self.scaling} must be ≥ 1")
+        self.model_id = self.material.model_id
+        #: the soil's strength line in triaxial compression, q_f = M_f p + c_f (bounds the hourglass stresses)
+        self._strength = self.material.strength_line()
+        self._max_substep = self.material.substep_strain(self.settings.soil_substep)
+        self.model_tag = model_tag(self.model_id)
+        self.prm = self.material.to_array()
+        self.gravity = self.settings.gravity / self.scaling
+        self.grain_density = self.material.grain_density * self.scaling
 
     def energy_balance_error(self) -> float:
         """KE + internal + dissipation − external work − (kinetic energy removed by the remap), J."""
@@ -160,16 +174,7 @@ class SoilField(FieldBalances):
 
     def __post_init__(self) -> None:
         g = self.grid
-        if self.scaling < 1.0:
-            raise ValueError(f"mass_gravity = {self.scaling} must be ≥ 1")
-        self.model_id = self.material.model_id
-        #: the soil's strength line in triaxial compression, q_f = M_f p + c_f (bounds the hourglass stresses)
-        self._strength = self.material.strength_line()
-        self._max_substep = self.material.substep_strain(self.settings.soil_substep)
-        self.model_tag = model_tag(self.model_id)
-        self.prm = self.material.to_array()
-        self.gravity = self.settings.gravity / self.scaling
-        self.grain_density = self.material.grain_density * self.scaling
+        self._init_material()
         shape = g.shape
         nshape = (g.nx + 1, g.ny + 1, g.nz + 1)
         nstate = len(self.material.state_names)
