@@ -44,6 +44,7 @@ def run(
     container_depth: float = 6.0,
     every: float = 0.1,
     verbose: bool = True,
+    raw: bool = False,
 ) -> dict:
     sc = preset_scenario("deeks-white")
     mat = sc.soil.material
@@ -97,6 +98,8 @@ def run(
         "friction_excess": c.worst_friction_excess,
         "energy_error": f.energy_balance_error() / max(f.energy["external_work"], 1e-300),
     }
+    if raw:  # every step's values and the final field, for studies that post-process them
+        out.update(depth=depth, qb=qb, qs=qs, field=f, contact=c)
     if verbose:
         print(" depth (m)   q_b (MPa)   q_s (kPa)")
         for d, b, sh in rows:
