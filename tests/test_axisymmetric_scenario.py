@@ -84,7 +84,9 @@ def test_pile_run_writes_history_summary_and_2d_vtk_and_matches_the_standalone_d
     h = read_history(tmp_path / "run" / "history.csv")
     step = 0.5 * s["dt_min"] * 2.0  # (the loop stops after the step that reaches the target)
     assert 0.03 <= h["penetration"].iloc[-1] <= 0.03 + step
-    assert h["tip_depth"].iloc[-1] - 0.1 == pytest.approx(h["penetration"].iloc[-1], rel=1e-5)  # (midpoint rule)
+    assert h["tip_depth"].iloc[-1] - 0.1 == pytest.approx(
+        h["penetration"].iloc[-1], rel=1e-5
+    )  # (midpoint rule)
     # the whole domain's soil mass (not per radian): ρ_d (π R² H − π a² embedment)
     a = 0.1
     rho_d = GRAIN / (1 + E0)
@@ -224,3 +226,38 @@ def test_axisymmetric_key_round_trips_and_3d_is_unchanged():
     d = scenario_dict(symmetry="quarter", fine_size=0.03)
     d["pile"]["type"] = "coupled"
     assert scenario_from_dict(d).pile.type == "coupled"
+
+
+def test_cli_preset_and_run(tmp_path):
+    import tomllib
+
+    import tomli_w
+
+    res = CliRunner().invoke(app, ["preset", "deeks-white", "--symmetry", "axisymmetric"])
+    assert res.exit_code == 0 and "# Runtime:" in res.output
+    sc = scenario_from_dict(tomllib.loads(res.output))
+    assert sc.domain.symmetry == "axisymmetric" and sc.pile.type == "rigid"
+    n = sc.pile.diameter / 2 / sc.domain.fine_size
+    assert n == pytest.approx(round(n), abs=1e-9) and round(n) == 3
+    fine = scenario_from_dict(
+        tomllib.loads(
+            CliRunner()
+            .invoke(app, ["preset", "deeks-white", "--symmetry", "axisymmetric", "--resolution", "paper"])
+            .output
+        )
+    )
+    assert fine.domain.fine_size == pytest.approx(sc.domain.fine_size / 4)
+    # `geocel run` on an axisymmetric scenario: exit 0, the run directory with the pile's curves
+    path = tmp_path / "rz.toml"
+    path.write_text(tomli_w.dumps(scenario_dict()))
+    args = [
+        "run",
+        str(path),
+        "--out",
+        str(tmp_path / "run"),
+        "--no-fields",
+        "--allow-invalid",
+    ]  # (3 cm: KE/IE > 10 %)
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 0, res.output
+    assert "rigid pile" in res.output and (tmp_path / "run" / "pile_curves.png").is_file()
