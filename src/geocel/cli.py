@@ -328,8 +328,9 @@ _AXISYMMETRIC_HEADER = """\
 # The Deeks & White pile in the axisymmetric (r–z) mode at the {res} resolution: rigid flat-based pile
 # (D = 0.6 m), the full container (radius 21.25 m, 28 m deep), jacked 2 m at 0.125 m/s with MGS S = 10 (at 3 cells
 # per radius this reproduced S = 1 at 0.5 m/s within about 3 %, docs/validation.md "inertia check").
-# Runtime: about 4 min on one core at the demo resolution (3 cells per pile radius, 3315 cells), with a
-# warm Numba cache; coarse (6 cells per radius) and paper (12) take about 4x and 16x as long.
+# Runtime: 5 min 12 s measured at the demo resolution (3 cells per pile radius, 2700 cells, 126 533 steps) on
+# one thread of a shared 2-core machine, Numba cache warm; coarse (6 cells per radius, 6890 cells) and paper
+# (12, 22 090 cells) about 5x and 30x as long (estimated from cells x steps).
 # Vertical loading only: no bending, lateral load or pile groups (use the 3D symmetries for those).
 """
 
