@@ -9,6 +9,9 @@ demo        0.2 m           1.2 m         z_pen + 2 m  minutes on 2 cores
 coarse      0.15 m          1.5 m         z_pen + 2 m  quick parametric studies
 paper       0.1 m           1.5 m         12 m         about the paper's 200 000 cells
 ==========  ==============  ============  ===========  ==========================================
+
+With ``symmetry="axisymmetric"`` (the r–z plane, rigid pile only) the resolutions are those of
+:data:`AXISYMMETRIC_RESOLUTIONS`: fine cells that divide the pile radius (3, 6 and 12 cells per radius).
 """
 
 from __future__ import annotations
@@ -29,6 +32,18 @@ RESOLUTIONS = {
 }
 
 
+#: resolutions of the axisymmetric mode: the pile radius (0.3 m) must be a whole number of fine cells
+AXISYMMETRIC_RESOLUTIONS = {
+    "demo": {"fine_size": 0.1, "fine_radius": 1.2, "growth": 1.15},  # 3 cells per pile radius
+    "coarse": {"fine_size": 0.05, "fine_radius": 1.2, "growth": 1.15},  # 6
+    "paper": {"fine_size": 0.025, "fine_radius": 1.5, "growth": 1.15},  # 12
+}
+SYMMETRIES = ("quarter", "half", "full", "axisymmetric")
+#: what ``geocel preset deeks-white --symmetry axisymmetric`` changes besides the grid: S v² as S = 1 at
+#: 0.5 m/s within ≈ 3 % (docs/validation.md, inertia check), and a penetration that takes minutes
+AXISYMMETRIC_QUICK = {"velocity": 0.125, "mass_gravity": 10.0, "penetration": 2.0}
+
+
 def preset_text(name: str) -> str:
     """The TOML text of a preset (with its comments)."""
     if name not in PRESETS:
@@ -43,9 +58,23 @@ def preset_dict(
     velocity: float | None = None,
     pile: str | None = None,
     scaling: float | None = None,
+    symmetry: str | None = None,
 ) -> dict:
-    """The preset as a dict, with a resolution and the usual overrides applied."""
+    """The preset as a dict, with a resolution and the usual overrides applied. ``symmetry="axisymmetric"``:
+    the r–z model with a rigid pile (unless ``pile`` says otherwise, which the scenario then refuses) and
+    the resolutions of :data:`AXISYMMETRIC_RESOLUTIONS` (default "demo")."""
     d = tomllib.loads(preset_text(name))
+    resolutions = RESOLUTIONS
+    if symmetry is not None:
+        if symmetry not in SYMMETRIES:
+            raise ValueError(f"unknown symmetry {symmetry!r}; available: {', '.join(SYMMETRIES)}")
+        d["domain"]["symmetry"] = symmetry
+        if symmetry == "axisymmetric":
+            d["domain"].pop("cylinder_mask", None)  # (the r–z domain is a cylinder)
+            d["name"] = f"{d['name']}-axisymmetric"
+            d["pile"]["type"] = pile or "rigid"
+            resolutions = AXISYMMETRIC_RESOLUTIONS
+            resolution = resolution or "demo"
     if penetration is not None:
         d["loading"]["penetration"] = float(penetration)
     if velocity is not None:
@@ -55,10 +84,10 @@ def preset_dict(
     if scaling is not None:
         d["scaling"]["mass_gravity"] = float(scaling)
     if resolution is not None:
-        if resolution not in RESOLUTIONS:
-            raise ValueError(f"unknown resolution {resolution!r}; available: {', '.join(RESOLUTIONS)}")
-        d["domain"].update(RESOLUTIONS[resolution])
-        if "fine_depth" not in RESOLUTIONS[resolution]:
+        if resolution not in resolutions:
+            raise ValueError(f"unknown resolution {resolution!r}; available: {', '.join(resolutions)}")
+        d["domain"].update(resolutions[resolution])
+        if "fine_depth" not in resolutions[resolution]:
             # (capped at the soil depth: a penetration too deep is then reported as such, not as fine_depth)
             d["domain"]["fine_depth"] = min(d["loading"]["penetration"] + 2.0, d["domain"]["soil_depth"])
     return d

@@ -119,8 +119,11 @@ class _Table(BaseModel):
 class Domain(_Table):
     """``[domain]``: extent and grading of the Eulerian grid."""
 
-    symmetry: Literal["quarter", "half", "full"] = Field(
-        "quarter", description="modelled part: quarter (x, y ≥ 0), half (y ≥ 0) or full"
+    symmetry: Literal["quarter", "half", "full", "axisymmetric"] = Field(
+        "quarter",
+        description="modelled part: quarter (x, y ≥ 0), half (y ≥ 0) or full 3D grid, or axisymmetric: the "
+        "r–z plane (vertical loading of a pile on the axis only: no bending, lateral load or groups; rigid "
+        "pile only; the pile radius must be a multiple of fine_size; cylinder_mask is ignored)",
     )
     radius: float = Field(21.25, gt=0.0, description="lateral extent from the pile axis, m")
     cylinder_mask: bool = Field(True, description="mask cells beyond `radius` (container wall), else a box")
@@ -525,6 +528,8 @@ class Scenario(_Table):
             self._check_void_ratios()
         if self.pile is not None:
             self._check_pile_geometry()
+            if self.domain.symmetry == "axisymmetric":
+                self._check_axisymmetric_pile()
             if self.contact.friction is None and isinstance(self.soil.material, Elastic):
                 raise _invalid(
                     ("contact", "friction"),
@@ -596,6 +601,33 @@ class Scenario(_Table):
                 self.loading.penetration,
                 f"initial_embedment + penetration = {tip:g} m exceeds the pile length {pile.length:g} m "
                 "(the head would enter the soil)",
+            )
+
+    def _check_axisymmetric_pile(self) -> None:
+        """The r–z mode has a rigid, flat-based pile whose radius is a node line of the grid (the fine cells
+        from the axis are fine_size wide, so the radius must be a whole number of them)."""
+        assert self.pile is not None
+        pile, dom = self.pile, self.domain
+        if pile.type != "rigid":
+            raise _invalid(
+                ("pile", "type"),
+                pile.type,
+                'symmetry = "axisymmetric" supports only a rigid pile for now (the solid and coupled piles are '
+                'not implemented in r–z): use type = "rigid", or a 3D symmetry (quarter, half, full)',
+            )
+        if pile.tip != "flat":
+            raise _invalid(
+                ("pile", "tip"), pile.tip, 'symmetry = "axisymmetric" supports only a flat tip for now'
+            )
+        a = 0.5 * pile.diameter
+        n = a / dom.fine_size
+        if abs(n - round(n)) > 1e-6 * max(n, 1.0) or round(n) < 1:
+            fits = ", ".join(f"{a / k:.6g}" for k in range(2, 7))
+            raise _invalid(
+                ("domain", "fine_size"),
+                dom.fine_size,
+                f"the pile radius {a:g} m must lie on a node line of the axisymmetric grid: fine_size must be "
+                f"radius/n for a whole n (cells per pile radius), e.g. {fits} (n = 2 … 6)",
             )
 
     def friction_coefficient(self) -> float:

@@ -464,6 +464,30 @@ class AxisymmetricPileContact:
             displacement[ia, kc, 1] -= lag
         self._pile_motion = 0.0
 
+    # --- checkpoints -----------------------------------------------------------------------------------------
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """Everything of the pile and the contact a restart needs (copies), by name."""
+        p = self.pile
+        scalars = [p.z_base, p.velocity, p.time, self._pile_motion, self._z_remap, self.soil_work]
+        scalars += [self.friction_work, self.worst_friction_excess, self.clamped_motion, self.contact_nodes]
+        return {
+            "scalars": np.array(scalars, dtype=float),
+            "base_force": self.base_force.copy(),
+            "shaft_force": self.shaft_force.copy(),
+            "shaft_normal": self.shaft_normal.copy(),
+            "shaft_friction": self.shaft_friction.copy(),
+        }
+
+    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        """The state saved by :meth:`state_arrays`."""
+        sc = [float(x) for x in arrays["scalars"]]
+        p = self.pile
+        p.z_base, p.velocity, p.time, self._pile_motion, self._z_remap, self.soil_work = sc[:6]
+        self.friction_work, self.worst_friction_excess, self.clamped_motion = sc[6:9]
+        self.contact_nodes = int(sc[9])
+        for name in ("base_force", "shaft_force", "shaft_normal", "shaft_friction"):
+            getattr(self, name)[...] = arrays[name]
+
     # --- what users look at ----------------------------------------------------------------------------------
     def embedded_length(self) -> float:
         return max(self.pile.embedment, 0.0)

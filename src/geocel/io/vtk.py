@@ -1,6 +1,7 @@
 """Field snapshots for ParaView: VTK XML files written with pyevtk and a ``.pvd`` time series.
 
 - :func:`write_rectilinear`: the Eulerian grid (``.vtr``), node coordinates per axis, cell and node data.
+- :func:`write_rectilinear_rz`: the r–z plane of an axisymmetric model as a 2D grid (``.vtr``, x = r, y = 0).
 - :func:`write_unstructured_hex`: Lagrangian bodies of 8-node hexahedra (``.vtu``).
 - :class:`PvdSeries`: the ParaView collection file listing the snapshots by time (and part/body).
 
@@ -23,7 +24,14 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 from pyevtk.hl import gridToVTK, unstructuredGridToVTK
 
-__all__ = ["TENSOR_SUFFIXES", "VTK_HEXAHEDRON", "PvdSeries", "write_rectilinear", "write_unstructured_hex"]
+__all__ = [
+    "TENSOR_SUFFIXES",
+    "VTK_HEXAHEDRON",
+    "PvdSeries",
+    "write_rectilinear",
+    "write_rectilinear_rz",
+    "write_unstructured_hex",
+]
 
 VTK_HEXAHEDRON = 12
 #: names of the 6 tensor components, in the storage order 11, 22, 33, 12, 13, 23
@@ -91,6 +99,42 @@ def write_rectilinear(
     final.parent.mkdir(parents=True, exist_ok=True)
     tmp = str(path_without_ext) + ".tmp"
     written = gridToVTK(tmp, xs, ys, zs, cellData=cd or None, pointData=pd or None)
+    return _finish(written, final)
+
+
+def write_rectilinear_rz(
+    path_without_ext: str | Path,
+    r: np.ndarray,
+    z: np.ndarray,
+    cell_data: Mapping[str, np.ndarray],
+    point_data: Mapping[str, np.ndarray] | None = None,
+) -> Path:
+    """Write the r–z plane of an axisymmetric model as a 2D rectilinear grid (``.vtr``, one node layer in y:
+    ParaView shows quads in its x–z plane, x = r) and return its path.
+
+    ``r, z``: node coordinates, m (nr+1, nz+1). ``cell_data``: arrays of shape (nr, nz[, 3 | 6]);
+    ``point_data``: (nr+1, nz+1[, 2 | 3 | 6]), a 2-vector (r, z) written as the 3-vector (r, 0, z)."""
+    rs, zs = (np.ascontiguousarray(np.asarray(c, dtype=np.float64)) for c in (r, z))
+    if rs.ndim != 1 or zs.ndim != 1 or min(rs.size, zs.size) < 2:
+        raise ValueError("r, z must be 1-D node coordinate arrays with at least 2 entries each")
+
+    def plane(data: Mapping[str, np.ndarray] | None, shape: tuple[int, int]) -> dict[str, np.ndarray]:
+        out = {}
+        for name, value in (data or {}).items():
+            a = np.asarray(value)
+            if a.shape == (*shape, 2):
+                a = np.stack([a[..., 0], np.zeros(shape), a[..., 1]], axis=-1)
+            out[name] = a.reshape(shape[0], 1, shape[1], *a.shape[2:])
+        return out
+
+    cells = (rs.size - 1, zs.size - 1)
+    nodes = (rs.size, zs.size)
+    cd = _prepare(plane(cell_data, cells), (cells[0], 1, cells[1]), "cell array")
+    pd = _prepare(plane(point_data, nodes), (nodes[0], 1, nodes[1]), "point array")
+    final = Path(str(path_without_ext) + ".vtr")
+    final.parent.mkdir(parents=True, exist_ok=True)
+    tmp = str(path_without_ext) + ".tmp"
+    written = gridToVTK(tmp, rs, np.zeros(1), zs, cellData=cd or None, pointData=pd or None)
     return _finish(written, final)
 
 

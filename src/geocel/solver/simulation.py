@@ -20,7 +20,6 @@ Restarts (DESIGN.md §1, "a killed run leaves everything readable"):
 
 from __future__ import annotations
 
-import math
 import signal
 import threading
 import time as _time
@@ -40,6 +39,7 @@ from ..grid import Grid
 from ..io.checkpoint import CheckpointError, load_latest_checkpoint, save_checkpoint
 from ..io.rundir import RunDirectory
 from ..materials import flags as fl
+from .backend import STATE_ARRAYS, Backend, build_backend
 from .field import InstabilityError, SoilField, SolverSettings
 from .output import AnyOf, Callback, PenetrationInterval, Schedule, TimeInterval
 from .quasi_static import inertia_verdict as _inertia_verdict
@@ -60,10 +60,12 @@ CHECKPOINT_FORMAT = 3
 
 
 #: arrays of the soil field saved in a checkpoint
-_STATE_ARRAYS = ("Vs", "Vcur", "mass", "stress", "state", "q", "hg", "v", "nmass", "modulus", "u_remap")
+_STATE_ARRAYS = STATE_ARRAYS
 
 
 def build_grid(scenario: Scenario) -> Grid:
+    """The 3D grid of a scenario (the axisymmetric one is built by
+    :class:`~geocel.solver.backend.AxisymmetricBackend`)."""
     d = scenario.domain
     return Grid.graded(
         radius=d.radius,
@@ -80,7 +82,7 @@ def build_grid(scenario: Scenario) -> Grid:
 
 
 def build_field(scenario: Scenario, grid: Grid | None = None) -> SoilField:
-    """Soil field with the geostatic initial state of the scenario (MGS applied here, once)."""
+    """3D soil field with the geostatic initial state of the scenario (MGS applied here, once)."""
     grid = build_grid(scenario) if grid is None else grid
     s = scenario.solver
     settings = SolverSettings(
@@ -141,6 +143,11 @@ class Simulation:
     their schedule is due: the built-in ``history``, ``fields``, ``progress`` and ``checkpoint``
     (:mod:`geocel.solver.writers`) and the user's own, given as ``callbacks=[...]`` or added with
     :meth:`add_callback`. ``write_fields=False`` / ``progress=False`` keep the snapshots / the progress bar off.
+
+    The model is a :class:`~geocel.solver.backend.Backend` (``self.backend``): the 3D grid or, with ``[domain]
+    symmetry = "axisymmetric"``, the r–z plane; ``field``, ``pile`` and ``contact`` are its parts (the r–z
+    pile is a :class:`~geocel.contact.axisym.RigidPileRZ`, its contact an
+    :class:`~geocel.contact.axisym.AxisymmetricPileContact`).
     """
 
     def __init__(
@@ -156,8 +163,10 @@ class Simulation:
         self.has_pile = scenario.pile is not None
         ld = scenario.loading
         o = scenario.output
+        #: head speed the backend jacks the pile at (0 without a pile)
+        self._head_speed = 0.0
         if self.has_pile:
-            self.velocity = ld.velocity * scenario.scaling.velocity_factor
+            self.velocity = self._head_speed = ld.velocity * scenario.scaling.velocity_factor
             self.target = ld.penetration  # head displacement to reach, m
             t_end = 2.0 * ld.ramp / self.velocity + (ld.penetration - ld.ramp) / self.velocity
             self.duration = duration if duration is not None else (ld.duration or t_end)
@@ -177,9 +186,11 @@ class Simulation:
         self.write_fields = write_fields
         root = Path(out or o.directory or f"runs/{scenario.name}")
         self.run_dir = RunDirectory(root, create=False)  # made by run() (not for a refused restart)
-        self.field: SoilField | None = None
-        self.pile: PileBody | None = None
-        self.contact: ContactCoupling | None = None
+        #: the model (soil field, pile, contact), built by run()
+        self.backend: Backend | None = None
+        self.field: Any = None
+        self.pile: Any = None
+        self.contact: Any = None
         self.max_energy_ratio = 0.0
         #: max of ρ_S v² / q_b over the history rows with the tip ≥ one diameter deep (-1: not yet)
         self.max_inertia_ratio = -1.0
@@ -334,7 +345,7 @@ class Simulation:
         f = self.field
         out = {name: getattr(f, name).copy() for name in _STATE_ARRAYS}
         if self.pile is not None:
-            out.update({f"pile_{k}": v for k, v in self.pile.state_arrays().items()})
+            out.update({f"pile_{k}": v for k, v in self.backend.pile_arrays().items()})
             out["force_sums"] = self._sums.copy()
         return out
 
@@ -344,7 +355,7 @@ class Simulation:
             if name in arrays or name != "u_remap":  # (checkpoints before deferred remaps: none pending)
                 getattr(f, name)[...] = arrays[name]
         if self.pile is not None:
-            self.pile.restore_arrays({k[5:]: v for k, v in arrays.items() if k.startswith("pile_")})
+            self.backend.restore_pile_arrays({k[5:]: v for k, v in arrays.items() if k.startswith("pile_")})
             self._sums[...] = arrays["force_sums"]
 
     def _meta(self) -> dict:
@@ -372,9 +383,9 @@ class Simulation:
             "restarts": self.restarts,
             "format": CHECKPOINT_FORMAT,
         }
-        if self.contact is not None:
-            c = self.contact
-            meta["contact"] = [c.soil_work, c.friction_work, c.moved_volume]
+        contact = self.backend.contact_meta() if self.contact is not None else None
+        if contact is not None:
+            meta["contact"] = contact
         return meta
 
     def _apply_meta(self, meta: dict) -> None:
@@ -400,8 +411,7 @@ class Simulation:
             self.governing = meta["governing"]
         self.restarts = list(meta.get("restarts", []))
         if self.contact is not None and "contact" in meta:
-            c = self.contact
-            c.soil_work, c.friction_work, c.moved_volume = meta["contact"]
+            self.backend.apply_contact_meta(meta["contact"])
 
     def checkpoint(
         self, arrays: dict[str, np.ndarray] | None = None, meta: dict | None = None
@@ -424,7 +434,7 @@ class Simulation:
 
     def tip_depth(self) -> float:
         """Depth of the pile tip below the ground surface (m)."""
-        return -self.pile.surface().z_apex if self.pile is not None else 0.0
+        return self.backend.tip_depth() if self.backend is not None else 0.0
 
     def energy_ratio(self) -> float:
         """Kinetic / internal energy of soil and pile."""
@@ -433,8 +443,9 @@ class Simulation:
         ie = e["internal"]
         if self.pile is not None:
             v_ref = -head_velocity(self.field.time, self.velocity, self.scenario.loading.ramp)
-            ke += self.pile.kinetic_energy(v_ref)
-            ie += self.pile.strain_energy()
+            pke, pse = self.backend.pile_energies(v_ref)
+            ke += pke
+            ie += pse
         return ke / ie if ie > 0 else float("nan")
 
     def _energy_check_start(self) -> float:
@@ -459,10 +470,12 @@ class Simulation:
     # --- outputs -------------------------------------------------------------------------------------------
     def summary(self) -> dict:
         f = self.field
+        x = self.backend.extent_factor  # (2π in r–z: the field's energies and masses are per radian)
         out = {
             "name": self.scenario.name,
             "status": self.status,
-            "soil_cells": int(f.grid.n_active),
+            "symmetry": self.backend.symmetry,
+            "soil_cells": self.backend.soil_cells(),
             "grid_shape": list(f.grid.shape),
             "smallest_cell": f.grid.smallest_cell(),
             "steps": f.step_count,
@@ -479,11 +492,11 @@ class Simulation:
             "dt_last": f.dt,
             "mass_gravity_scaling": f.scaling,
             "max_energy_ratio": self.max_energy_ratio,
-            "energy_balance_error": f.energy_balance_error(),
-            "external_work": f.energy["external_work"],
+            "energy_balance_error": f.energy_balance_error() * x,
+            "external_work": f.energy["external_work"] * x,
             "soil_mass_error": f.mass_error(),
-            "lost_mass": f.lost_mass / f.scaling,
-            "capped_soil_volume": f.capped_volume,
+            "lost_mass": f.lost_mass / f.scaling * x,
+            "capped_soil_volume": f.capped_volume * x,
             "rule_counts": self.rule_counts,
             "diagnostic": self.diagnostic,
             "quasi_static": _verdict(self.max_energy_ratio),
@@ -494,45 +507,23 @@ class Simulation:
             "notes": self.notes,
         }
         if self.pile is not None:
-            p = self.pile
+            out.update(self.backend.pile_summary())
             out.update(
-                pile_type=p.kind,
-                pile_elements=p.n_elements,
                 pile_steps=self.pile_steps,
                 pile_dt=self.governing.get("pile_dt"),
                 pile_substeps=self.governing.get("pile_substeps"),
                 pile_subcycling=self.scenario.solver.pile_subcycling,
                 single_dt_wall_time_estimate=self._single_dt_wall_estimate(),
-                symmetry_factor=p.symmetry_factor,
                 velocity=self.velocity,
                 penetration=self.head_displacement(),
                 tip_depth=self.tip_depth(),
-                friction_coefficient=self.contact.mu,
-                soil_moved_out_of_pile=self.contact.moved_volume,
             )
         return out
 
     def _governing(self) -> float:
-        """Global Δt = min(soil, pile), or the soil's Δt with the pile subcycled (``[solver]
-        pile_subcycling``); records which body and element governs and the pile's substeps per step."""
-        f = self.field
-        dt = f.dt
-        pos = f.governing_cell_position()
-        gov = {"body": "soil", "element": {"cell": int(f.governing_cell), "position_m": pos}, "dt": dt}
-        self._substeps = 1
-        if self.pile is not None:
-            dtp, part, e = self.pile.stable_time_step()
-            dtp *= self.scenario.solver.safety_factor
-            gov["pile_dt"] = dtp
-            gov["pile_element"] = {part: int(e)}
-            if dtp < dt:
-                if self.scenario.solver.pile_subcycling and self.pile.subcycling:
-                    self._substeps = math.ceil(dt / dtp * (1.0 + 1e-12))
-                else:
-                    dt = dtp
-                    gov = {**gov, "body": f"pile ({self.pile.kind})", "element": {part: int(e)}, "dt": dt}
-        gov["pile_substeps"] = self._substeps
-        self.governing = gov
+        """The step's Δt from the backend (:meth:`~geocel.solver.backend.Backend.governing`); records which body
+        and element governs and the pile's substeps per soil step."""
+        dt, self.governing, self._substeps = self.backend.governing()
         return dt
 
     def _single_dt_wall_estimate(self) -> float:
@@ -543,19 +534,6 @@ class Simulation:
         if f.step_count == 0 or soil <= 0.0:
             return self.wall_time
         return self.wall_time + max(self.pile_steps - f.step_count, 0) * soil / f.step_count
-
-    def _advance_pile(self, dt: float) -> None:
-        """Advance the pile over the soil step Δt in ``self._substeps`` equal substeps (head velocity at each
-        substep's midpoint; the contact load of the last soil step is held)."""
-        n = self._substeps
-        h = dt / n
-        t0 = self.field.time
-        ramp = self.scenario.loading.ramp
-        self.pile.begin_step()
-        for s in range(n):
-            self.pile.advance(h, head_velocity(t0 + (s + 0.5) * h, self.velocity, ramp))
-        self.pile.end_step(dt)
-        self.pile_steps += n
 
     # --- the loop --------------------------------------------------------------------------------------------
     def _done(self) -> bool:
@@ -589,12 +567,10 @@ class Simulation:
         self._active = self._ordered_callbacks()
         ckpt = self._read_checkpoint(allow_changes) if restart else None
         rd.check_writable()
-        self.field = build_field(self.scenario)
-        self._soil_density = self.field.soil_density()
+        self.backend = build_backend(self.scenario)
+        self.field, self.pile, self.contact = self.backend.field, self.backend.pile, self.backend.contact
+        self._soil_density = self.backend.soil_density()
         f = self.field
-        if f.contact is not None:
-            self.contact = f.contact
-            self.pile = f.contact.pile
         self._sums = np.zeros(4)  # time, base, shaft and head force impulses since the last history row
         self._outputs_step = -1
         self.diagnostic = None
@@ -631,12 +607,12 @@ class Simulation:
                 self.keep_good_state(self._snapshot(), self._meta())
             while not self._done():
                 dt = self._governing()
+                fb, fs, fh = self.backend.advance(
+                    dt, self._head_speed, self.scenario.loading.ramp, self._substeps
+                )
                 if self.pile is not None:
-                    self._advance_pile(dt)
-                f.step(dt)
-                if self.pile is not None:
-                    fc = self.contact.forces
-                    self._sums += (dt, fc.base[2] * dt, fc.shaft[2] * dt, self.pile.head_force * dt)
+                    self.pile_steps += self._substeps
+                    self._sums += (dt, fb * dt, fs * dt, fh * dt)
                 self.steps_this_run += 1
                 self.dt_min = min(self.dt_min, dt)
                 self._count_rules()
@@ -797,10 +773,7 @@ class Simulation:
         """``[solver] kinetic_energy_limit`` crossed after a complete step: stop there (that step is the last
         complete state, checkpointed) and say where the soil moves fastest."""
         f = self.field
-        g = f.grid
-        speed = np.linalg.norm(np.nan_to_num(f.v), axis=-1)
-        i, j, k = (int(t) for t in np.unravel_index(np.argmax(speed), speed.shape))
-        where = (float(g.x[i]), float(g.y[j]), float(g.z[k]))
+        index, where = self.backend.fastest_node()
         self.status = "unstable"
         self.diagnostic = {
             "quantity": "kinetic_energy",
@@ -808,7 +781,7 @@ class Simulation:
             "time": f.time,
             "last_complete_step": f.step_count,
             "last_complete_time": f.time,
-            "index": [i, j, k],
+            "index": index,
             "position_m": where,
             "message": (
                 f"kinetic/internal energy ratio {ratio:.3g} exceeds the limit {self.ke_limit} at step "

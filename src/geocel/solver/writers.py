@@ -12,13 +12,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..bodies.geometry import pile_mesh
-from ..bodies.pile import RigidPile
 from ..io.history import HistoryWriter, truncate_after
-from ..io.vtk import PvdSeries, write_rectilinear, write_unstructured_hex
+from ..io.vtk import PvdSeries
 from .output import Callback, Schedule, StepInterval
 
 if TYPE_CHECKING:
+    from .backend import Backend
     from .simulation import Simulation
 
 __all__ = [
@@ -93,17 +92,24 @@ HISTORY_UNITS = {
 }
 
 
-def history_preamble(symmetry: str) -> list[str]:
+def history_preamble(symmetry: str | Backend) -> list[str]:
     """Comment lines at the top of ``history.csv``: the unit of every column and what the symmetry factor
-    applies to (read with ``pandas.read_csv(path, comment="#")`` or :func:`geocel.io.history.read_history`)."""
-    k = {"quarter": 4, "half": 2}.get(symmetry, 1)
+    applies to (read with ``pandas.read_csv(path, comment="#")`` or :func:`geocel.io.history.read_history`).
+    ``symmetry``: the run's backend, or a 3D symmetry name."""
+    if isinstance(symmetry, str):
+        k = {"quarter": 4, "half": 2}.get(symmetry, 1)
+        what = (
+            f"symmetry: {symmetry} model; qb, qs, base_force, shaft_force and head_force are of the whole pile "
+            f"(forces of the model multiplied by {k}); energies, works, volumes and masses are of the modelled "
+            f"part (not multiplied)"
+        )
+    else:
+        what = symmetry.history_preamble()
     units = ", ".join(f"{c} [{HISTORY_UNITS[c]}]" for c in HISTORY_COLUMNS)
     return [
         f"units: {units}",
-        f"symmetry: {symmetry} model; qb, qs, base_force, shaft_force and head_force are of the whole pile "
-        f"(forces of the model multiplied by {k}); energies, works, volumes and masses are of the modelled "
-        f"part (not multiplied); qs is the shaft force over the embedded shaft area; rows average the forces "
-        f"over the steps since the previous row",
+        f"{what}; qs is the shaft force over the embedded shaft area; rows average the forces over the steps "
+        "since the previous row",
     ]
 
 
@@ -117,7 +123,7 @@ class HistoryOutput(Callback):
 
     def initialize(self, sim: Simulation) -> None:
         rd = sim.run_dir
-        preamble = history_preamble(sim.scenario.domain.symmetry)
+        preamble = history_preamble(sim.backend)
         if sim.restarted:  # rows after the checkpoint dropped; an unreadable file is set aside
             try:
                 if rd.history_csv.is_file():
@@ -142,37 +148,36 @@ class HistoryOutput(Callback):
         """The history row of the current state (resets the force impulses summed since the last row)."""
         f = sim.field
         e = f.energy
+        x = sim.backend.extent_factor  # (2π in r–z: the field's energies and masses are per radian)
         row = {
             "step": f.step_count,
             "time": f.time,
             "dt": f.dt,
             "penetration": sim.head_displacement(),
             "tip_depth": sim.tip_depth(),
-            "kinetic_energy": e["kinetic"],
-            "internal_energy": e["internal"],
-            "external_work": e["external_work"],
-            "viscous_dissipation": e["viscous"],
-            "hourglass_dissipation": e["hourglass"],
-            "remap_kinetic_loss": e["remap_kinetic_loss"],
-            "energy_error": f.energy_balance_error(),
+            "kinetic_energy": e["kinetic"] * x,
+            "internal_energy": e["internal"] * x,
+            "external_work": e["external_work"] * x,
+            "viscous_dissipation": e["viscous"] * x,
+            "hourglass_dissipation": e["hourglass"] * x,
+            "remap_kinetic_loss": e["remap_kinetic_loss"] * x,
+            "energy_error": f.energy_balance_error() * x,
             "energy_ratio": sim.energy_ratio(),
-            "soil_mass": f.soil_mass() / f.scaling,
-            "lost_mass": f.lost_mass / f.scaling,
+            "soil_mass": f.soil_mass() / f.scaling * x,
+            "lost_mass": f.lost_mass / f.scaling * x,
             "max_velocity": float(np.abs(f.v).max()),
             "wall_time": wall,
         }
         nan = float("nan")
         row.update(dict.fromkeys(("qb", "qs", "base_force", "shaft_force", "head_force"), nan))
         if sim.pile is not None:
-            c = sim.contact
-            pile = sim.pile
-            k = pile.symmetry_factor
+            k = sim.backend.force_factor
             sums = sim.force_sums
             T = sums[0]
             if T > 0:
                 fb, fs, fh = sums[1] / T, sums[2] / T, sums[3] / T
-                L = c.embedded_length()
-                g = pile.geometry
+                L = sim.contact.embedded_length()
+                g = sim.backend.geometry
                 qb = fb * k / g.base_area
                 if row["tip_depth"] >= g.diameter and qb > 0.0:
                     sim.record_inertia(qb)
@@ -184,13 +189,7 @@ class HistoryOutput(Callback):
                     head_force=fh * k,
                 )
             sums[...] = 0.0
-            row.update(
-                pile_kinetic_energy=pile.kinetic_energy(),
-                pile_strain_energy=pile.strain_energy(),
-                friction_work=c.friction_work,
-                jack_work=pile.work,
-                soil_inside_pile=c.soil_inside(),
-            )
+            row.update(sim.backend.pile_history())
         return row
 
     def finalize(self, sim: Simulation) -> None:
@@ -200,8 +199,9 @@ class HistoryOutput(Callback):
 
 
 class FieldsOutput(Callback):
-    """VTK snapshots for ParaView: the soil (``fields/soil_NNNNN.vtr``), the pile (``pile_NNNNN.vtu``), the
-    coupled pile's stress resultants along the beam (``beam_forces_NNNNN.csv``), listed in ``fields.pvd``.
+    """VTK snapshots for ParaView: the soil (``fields/soil_NNNNN.vtr``; a 2D grid in the x–z plane, x = r, in
+    the axisymmetric mode), the pile (``pile_NNNNN.vtu``), the coupled pile's stress resultants along the beam
+    (``beam_forces_NNNNN.csv``), listed in ``fields.pvd`` (files by :meth:`Backend.write_fields`).
     Also the final state of a finished run, and the last complete state of an unstable one. Nothing is
     written while ``sim.write_fields`` is False (the schedule still advances)."""
 
@@ -210,7 +210,6 @@ class FieldsOutput(Callback):
         #: number of the next snapshot file
         self.index = 0
         self.pvd: PvdSeries | None = None
-        self._rigid_mesh = None
 
     def initialize(self, sim: Simulation) -> None:
         self.pvd = PvdSeries(sim.run_dir.pvd)
@@ -231,48 +230,11 @@ class FieldsOutput(Callback):
         super().restore(state)
         self.index = int(state.get("index", 0))
 
-    def _pile_vtu(self, sim: Simulation) -> tuple[np.ndarray, np.ndarray, dict, dict]:
-        """Points, hexahedra, cell and point data of the pile for ParaView."""
-        pile = sim.pile
-        if isinstance(pile, RigidPile):
-            if self._rigid_mesh is None:
-                g = pile.geometry
-                self._rigid_mesh = pile_mesh(g, max(g.diameter / 4, g.length / 40), pile.symmetry)
-            m = self._rigid_mesh
-            shift = np.array([pile.center[0], pile.center[1], pile.z_apex - pile.geometry.z_tip])
-            pts = m.nodes + shift
-            return pts, m.hexes, {}, {"displacement": np.broadcast_to(shift, pts.shape).copy()}
-        body = pile.body.volume if pile.kind == "coupled" else pile.body
-        cell = {"stress": body.stress}
-        return body.x, body.hexes, cell, {"displacement": body.x - body.x0, "velocity": body.v}
-
     def __call__(self, sim: Simulation) -> None:
         if not sim.write_fields:
             return
-        f = sim.field
-        rd = sim.run_dir
-        path = write_rectilinear(
-            rd.field_path("soil", self.index),
-            f.grid.x,
-            f.grid.y,
-            f.grid.z,
-            f.cell_fields(),
-            point_data={"velocity": f.v},
-        )
-        self.pvd.add(f.time, path)
-        if sim.pile is not None:
-            pts, hexes, cd, pd = self._pile_vtu(sim)
-            ppath = write_unstructured_hex(rd.field_path("pile", self.index), pts, hexes, cd, pd)
-            self.pvd.add(f.time, ppath, part=1)
-            if sim.pile.kind == "coupled":  # stress resultants along the beam (whole pile)
-                import pandas as pd
-
-                z, N = sim.pile.axial_force()
-                M = sim.pile.bending_moment()
-                table = pd.DataFrame(
-                    {"z_m": z, "axial_force_N": N, "moment_x_Nm": M[:, 0], "moment_y_Nm": M[:, 1]}
-                )
-                table.to_csv(rd.field_path("beam_forces", self.index).with_suffix(".csv"), index=False)
+        for path, part in sim.backend.write_fields(sim.run_dir, self.index):
+            self.pvd.add(sim.time, path, part=part)
         self.index += 1
 
 

@@ -1,0 +1,497 @@
+"""The soil field and the pile of a scenario behind one interface: what the simulation loop asks of a model.
+
+:class:`~geocel.solver.simulation.Simulation`, the history and the field snapshots (:mod:`geocel.solver.writers`)
+talk to a backend only; the physics stays in the fields and contacts it wraps. Two backends, picked by
+``[domain] symmetry`` in :func:`build_backend`:
+
+* :class:`CartesianBackend`: the 3D grid (quarter, half or full model), :class:`~geocel.solver.field.SoilField`
+  with any pile (:mod:`geocel.bodies.pile`) and :class:`~geocel.contact.coupling.ContactCoupling`;
+* :class:`AxisymmetricBackend`: the r–z plane, :class:`~geocel.solver.axisym_field.AxisymmetricField` with the
+  rigid pile of :mod:`geocel.contact.axisym` (issue 17).
+
+Units of what a backend reports: forces returned by :meth:`Backend.advance` × ``force_factor`` are those on the
+whole pile (N); the field's energies, masses and volumes × ``extent_factor`` are those the outputs report (the
+modelled part in 3D, factor 1; the whole ring in r–z, whose field holds them per radian, factor 2π).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..bodies.geometry import PileGeometry, pile_mesh
+from ..bodies.pile import RigidPile, head_velocity
+from ..euler.lagrange import PHI_MIN
+from ..io.vtk import write_rectilinear, write_rectilinear_rz, write_unstructured_hex
+
+if TYPE_CHECKING:
+    from ..config.scenario import Scenario
+    from ..io.rundir import RunDirectory
+
+__all__ = ["AxisymmetricBackend", "Backend", "CartesianBackend", "build_backend"]
+
+#: arrays of the soil field saved in a checkpoint (both fields have them)
+STATE_ARRAYS = ("Vs", "Vcur", "mass", "stress", "state", "q", "hg", "v", "nmass", "modulus", "u_remap")
+
+
+def _settings(scenario: Scenario):
+    from .field import SolverSettings
+
+    s = scenario.solver
+    return SolverSettings(
+        safety_factor=s.safety_factor,
+        hourglass=s.hourglass,
+        hourglass_stiffness=s.hourglass_stiffness,
+        bulk_viscosity_linear=s.bulk_viscosity_linear,
+        bulk_viscosity_quadratic=s.bulk_viscosity_quadratic,
+        gravity=s.gravity,
+        remap_courant=s.remap_courant,
+        soil_substep=s.soil_substep,
+    )
+
+
+def _layers(scenario: Scenario) -> list[tuple[float, float]]:
+    mat = scenario.soil.material
+    return [(layer.top, scenario.soil.void_ratio_of(layer, mat)) for layer in scenario.soil.layers]
+
+
+def _geometry(scenario: Scenario) -> PileGeometry | None:
+    p = scenario.pile
+    if p is None:
+        return None
+    return PileGeometry.embedded(p.diameter, p.length, p.initial_embedment, tip=p.tip, tip_angle=p.tip_angle)
+
+
+class Backend:
+    """What the loop needs of a model (soil field, pile, contact); see the module docstring for the units."""
+
+    symmetry: str = ""
+    force_factor: float = 1.0
+    extent_factor: float = 1.0
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.scenario = scenario
+        self.field: Any = None
+        self.pile: Any = None
+        self.contact: Any = None
+        #: the pile's geometry (None without a pile): base area, perimeter, diameter of q_b and q_s
+        self.geometry = _geometry(scenario)
+
+    # --- the soil ------------------------------------------------------------------------------------------
+    def soil_cells(self) -> int:
+        """Cells of the soil domain (active cells in 3D)."""
+        raise NotImplementedError
+
+    def soil_density(self) -> float:
+        """Largest soil density over the cells at least half full, kg/m³ (MGS included: what inertia sees)."""
+        f = self.field
+        full = (f.Vs >= 0.5 * f.volume) & self._active()
+        return float((f.mass[full] / f.Vs[full]).max()) if full.any() else 0.0
+
+    def _active(self) -> np.ndarray | bool:
+        return True
+
+    def cell_position(self, index: int) -> tuple[float, ...] | None:
+        """Centre of the cell with flat index ``index`` (m), None for −1."""
+        raise NotImplementedError
+
+    def fastest_node(self) -> tuple[list[int], tuple[float, ...]]:
+        """Index and position (m) of the soil node that moves fastest."""
+        f = self.field
+        speed = np.linalg.norm(np.nan_to_num(f.v), axis=-1)
+        idx = np.unravel_index(np.argmax(speed), speed.shape)
+        axes = self._node_axes()
+        return [int(i) for i in idx], tuple(float(a[i]) for a, i in zip(axes, idx, strict=True))
+
+    def _node_axes(self) -> tuple[np.ndarray, ...]:
+        raise NotImplementedError
+
+    # --- the step ------------------------------------------------------------------------------------------
+    def governing(self) -> tuple[float, dict, int]:
+        """The step Δt, which body and element govern it (dict of the summary) and the pile's substeps per
+        soil step."""
+        f = self.field
+        dt = f.dt
+        gov = {
+            "body": "soil",
+            "element": {"cell": int(f.governing_cell), "position_m": self.cell_position(f.governing_cell)},
+            "dt": dt,
+        }
+        return dt, gov, 1
+
+    def advance(self, dt: float, velocity: float, ramp: float, substeps: int) -> tuple[float, float, float]:
+        """Move the pile (head velocity ``velocity`` after a smooth start over ``ramp``, evaluated at the
+        field's time) and step the soil over Δt; returns the step's vertical base, shaft and head forces on
+        the pile (N, the model's: × ``force_factor`` for the whole pile; zeros without a pile)."""
+        raise NotImplementedError
+
+    # --- the pile ------------------------------------------------------------------------------------------
+    def tip_depth(self) -> float:
+        """Depth of the pile tip below the ground surface (m; 0 without a pile)."""
+        raise NotImplementedError
+
+    def pile_energies(self, v_ref: float) -> tuple[float, float]:
+        """Kinetic energy relative to the vertical velocity ``v_ref`` and strain energy of the pile (J, the
+        field's extent: per radian in r–z)."""
+        return 0.0, 0.0
+
+    def pile_history(self) -> dict[str, float]:
+        """The pile's columns of a history row other than the forces."""
+        raise NotImplementedError
+
+    def pile_summary(self) -> dict[str, Any]:
+        """The pile's entries of ``summary.json`` other than penetration and velocity."""
+        raise NotImplementedError
+
+    def pile_arrays(self) -> dict[str, np.ndarray]:
+        """The pile's and the contact's state for a checkpoint."""
+        raise NotImplementedError
+
+    def restore_pile_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        raise NotImplementedError
+
+    def contact_meta(self) -> list[float] | None:
+        """Scalars of the contact kept in a checkpoint's metadata (None: all in :meth:`pile_arrays`)."""
+        return None
+
+    def apply_contact_meta(self, values: list[float]) -> None:
+        pass
+
+    # --- outputs -------------------------------------------------------------------------------------------
+    def history_preamble(self) -> str:
+        """What the forces and the extensive columns of ``history.csv`` are of."""
+        raise NotImplementedError
+
+    def write_fields(self, run_dir: RunDirectory, index: int) -> list[tuple[Path, int]]:
+        """Write snapshot ``index`` of the soil (and pile); returns the files with their ``.pvd`` part."""
+        raise NotImplementedError
+
+
+class CartesianBackend(Backend):
+    """The 3D model: graded grid of hexahedral cells (quarter, half or full), any pile."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        from .simulation import build_field
+
+        super().__init__(scenario)
+        self.symmetry = scenario.domain.symmetry
+        self.field = build_field(scenario)
+        if self.field.contact is not None:
+            self.contact = self.field.contact
+            self.pile = self.contact.pile
+            self.force_factor = float(self.pile.symmetry_factor)
+            self.geometry = self.pile.geometry
+        self._rigid_mesh = None
+
+    def soil_cells(self) -> int:
+        return int(self.field.grid.n_active)
+
+    def _active(self) -> np.ndarray:
+        return self.field.active3
+
+    def cell_position(self, index: int) -> tuple[float, ...] | None:
+        if index < 0:
+            return None
+        g = self.field.grid
+        i, j, k = np.unravel_index(index, g.shape)
+        return float(g.xc[i]), float(g.yc[j]), float(g.zc[k])
+
+    def _node_axes(self) -> tuple[np.ndarray, ...]:
+        g = self.field.grid
+        return g.x, g.y, g.z
+
+    def governing(self) -> tuple[float, dict, int]:
+        """Global Δt = min(soil, pile), or the soil's Δt with the pile subcycled (``[solver]
+        pile_subcycling``)."""
+        dt, gov, substeps = super().governing()
+        if self.pile is not None:
+            solver = self.scenario.solver
+            dtp, part, e = self.pile.stable_time_step()
+            dtp *= solver.safety_factor
+            gov["pile_dt"] = dtp
+            gov["pile_element"] = {part: int(e)}
+            if dtp < dt:
+                if solver.pile_subcycling and self.pile.subcycling:
+                    substeps = math.ceil(dt / dtp * (1.0 + 1e-12))
+                else:
+                    dt = dtp
+                    gov = {**gov, "body": f"pile ({self.pile.kind})", "element": {part: int(e)}, "dt": dt}
+        gov["pile_substeps"] = substeps
+        return dt, gov, substeps
+
+    def advance(self, dt: float, velocity: float, ramp: float, substeps: int) -> tuple[float, float, float]:
+        """The pile over Δt in ``substeps`` equal substeps (head velocity at each substep's midpoint; the
+        contact load of the last soil step is held), then the soil step."""
+        f, pile = self.field, self.pile
+        if pile is None:
+            f.step(dt)
+            return 0.0, 0.0, 0.0
+        h = dt / substeps
+        t0 = f.time
+        pile.begin_step()
+        for s in range(substeps):
+            pile.advance(h, head_velocity(t0 + (s + 0.5) * h, velocity, ramp))
+        pile.end_step(dt)
+        f.step(dt)
+        fc = self.contact.forces
+        return float(fc.base[2]), float(fc.shaft[2]), float(pile.head_force)
+
+    def tip_depth(self) -> float:
+        return -self.pile.surface().z_apex if self.pile is not None else 0.0
+
+    def pile_energies(self, v_ref: float) -> tuple[float, float]:
+        return self.pile.kinetic_energy(v_ref), self.pile.strain_energy()
+
+    def pile_history(self) -> dict[str, float]:
+        c, pile = self.contact, self.pile
+        return {
+            "pile_kinetic_energy": pile.kinetic_energy(),
+            "pile_strain_energy": pile.strain_energy(),
+            "friction_work": c.friction_work,
+            "jack_work": pile.work,
+            "soil_inside_pile": c.soil_inside(),
+        }
+
+    def pile_summary(self) -> dict[str, Any]:
+        p = self.pile
+        return {
+            "pile_type": p.kind,
+            "pile_elements": p.n_elements,
+            "symmetry_factor": p.symmetry_factor,
+            "friction_coefficient": self.contact.mu,
+            "soil_moved_out_of_pile": self.contact.moved_volume,
+        }
+
+    def pile_arrays(self) -> dict[str, np.ndarray]:
+        return self.pile.state_arrays()
+
+    def restore_pile_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        self.pile.restore_arrays(arrays)
+
+    def contact_meta(self) -> list[float] | None:
+        c = self.contact
+        return [c.soil_work, c.friction_work, c.moved_volume]
+
+    def apply_contact_meta(self, values: list[float]) -> None:
+        c = self.contact
+        c.soil_work, c.friction_work, c.moved_volume = values
+
+    def history_preamble(self) -> str:
+        k = {"quarter": 4, "half": 2}.get(self.symmetry, 1)
+        return (
+            f"symmetry: {self.symmetry} model; qb, qs, base_force, shaft_force and head_force are of the whole "
+            f"pile (forces of the model multiplied by {k}); energies, works, volumes and masses are of the "
+            f"modelled part (not multiplied)"
+        )
+
+    def _pile_vtu(self) -> tuple[np.ndarray, np.ndarray, dict, dict]:
+        """Points, hexahedra, cell and point data of the pile for ParaView."""
+        pile = self.pile
+        if isinstance(pile, RigidPile):
+            if self._rigid_mesh is None:
+                g = pile.geometry
+                self._rigid_mesh = pile_mesh(g, max(g.diameter / 4, g.length / 40), pile.symmetry)
+            m = self._rigid_mesh
+            shift = np.array([pile.center[0], pile.center[1], pile.z_apex - pile.geometry.z_tip])
+            pts = m.nodes + shift
+            return pts, m.hexes, {}, {"displacement": np.broadcast_to(shift, pts.shape).copy()}
+        body = pile.body.volume if pile.kind == "coupled" else pile.body
+        cell = {"stress": body.stress}
+        return body.x, body.hexes, cell, {"displacement": body.x - body.x0, "velocity": body.v}
+
+    def write_fields(self, run_dir: RunDirectory, index: int) -> list[tuple[Path, int]]:
+        f = self.field
+        g = f.grid
+        soil = write_rectilinear(
+            run_dir.field_path("soil", index), g.x, g.y, g.z, f.cell_fields(), point_data={"velocity": f.v}
+        )
+        out = [(soil, 0)]
+        if self.pile is not None:
+            pts, hexes, cd, pd = self._pile_vtu()
+            out.append((write_unstructured_hex(run_dir.field_path("pile", index), pts, hexes, cd, pd), 1))
+            if self.pile.kind == "coupled":  # stress resultants along the beam (whole pile)
+                import pandas as pd
+
+                z, N = self.pile.axial_force()
+                M = self.pile.bending_moment()
+                table = pd.DataFrame(
+                    {"z_m": z, "axial_force_N": N, "moment_x_Nm": M[:, 0], "moment_y_Nm": M[:, 1]}
+                )
+                table.to_csv(run_dir.field_path("beam_forces", index).with_suffix(".csv"), index=False)
+        return out
+
+
+class AxisymmetricBackend(Backend):
+    """The r–z model: :class:`~geocel.grid.axisym.AxisymmetricGrid` from the ``[domain]`` keys, the rigid pile
+    of :mod:`geocel.contact.axisym` (its radius a node line of the grid; shaft friction and base friction μ,
+    base formulation ``[contact] formulation``). A pile embedded at the start is wished in place after the
+    geostatic state is built (the soil below its base keeps its overburden stress)."""
+
+    symmetry = "axisymmetric"
+    extent_factor = 2.0 * math.pi
+
+    def __init__(self, scenario: Scenario) -> None:
+        from ..contact.axisym import AxisymmetricPileContact, RigidPileRZ
+        from ..grid.axisym import AxisymmetricGrid
+        from .axisym_field import AxisymmetricField
+
+        super().__init__(scenario)
+        d = scenario.domain
+        grid = AxisymmetricGrid.graded(
+            radius=d.radius,
+            soil_depth=d.soil_depth,
+            void_height=d.void_height,
+            fine_size=d.fine_size,
+            fine_radius=d.fine_radius,
+            fine_depth=d.fine_depth,
+            growth=d.growth,
+            max_size=d.max_size,
+        )
+        mat = scenario.soil.material
+        f = AxisymmetricField(grid, mat, scaling=scenario.scaling.mass_gravity, settings=_settings(scenario))
+        f.fill_below(0.0)
+        f.geostatic(
+            _layers(scenario), k0=scenario.initial.k0, intergranular=scenario.initial.intergranular_strain
+        )
+        self.field = f
+        #: jacking force on the whole pile in the last step (N, + compression) and the jack's work (J)
+        self.head_force = 0.0
+        self.jack_work = 0.0
+        p = scenario.pile
+        if p is not None:
+            mu = scenario.contact.friction_coefficient(mat)
+            pile = RigidPileRZ(0.5 * p.diameter, -p.initial_embedment)
+            self.contact = AxisymmetricPileContact(
+                f, pile, friction=mu, base_friction=mu, base=scenario.contact.formulation
+            )
+            self.pile = pile
+            if p.initial_embedment > 0.0:
+                self.contact.wish_in_place()
+
+    def soil_cells(self) -> int:
+        return int(self.field.grid.n_cells)
+
+    def cell_position(self, index: int) -> tuple[float, ...] | None:
+        if index < 0:
+            return None
+        g = self.field.grid
+        i, k = np.unravel_index(index, g.shape)
+        return float(g.rc[i]), float(g.zc[k])
+
+    def _node_axes(self) -> tuple[np.ndarray, ...]:
+        g = self.field.grid
+        return g.r, g.z
+
+    def governing(self) -> tuple[float, dict, int]:
+        dt, gov, substeps = super().governing()
+        if self.pile is not None:  # (rigid: never governs)
+            gov.update(pile_dt=math.inf, pile_element={"rigid": -1}, pile_substeps=1)
+        return dt, gov, substeps
+
+    def advance(self, dt: float, velocity: float, ramp: float, substeps: int) -> tuple[float, float, float]:
+        f = self.field
+        if self.pile is None:
+            f.step(dt)
+            return 0.0, 0.0, 0.0
+        v_head = head_velocity(f.time + 0.5 * dt, velocity, ramp)
+        self.pile.advance(dt, v_head)
+        f.step(dt)
+        c = self.contact
+        fb, fs = float(c.base_force[1]), float(c.shaft_force[1])
+        self.head_force = fb + fs  # a rigid pile: the jack carries the soil's whole vertical force
+        self.jack_work += self.head_force * v_head * dt
+        return fb, fs, self.head_force
+
+    def tip_depth(self) -> float:
+        return self.pile.embedment if self.pile is not None else 0.0
+
+    def pile_history(self) -> dict[str, float]:
+        c = self.contact
+        return {
+            "pile_kinetic_energy": 0.0,
+            "pile_strain_energy": 0.0,
+            "friction_work": c.friction_work * self.extent_factor,
+            "jack_work": self.jack_work,
+            "soil_inside_pile": c.soil_inside(),
+        }
+
+    def pile_summary(self) -> dict[str, Any]:
+        c = self.contact
+        return {
+            "pile_type": "rigid",
+            "pile_elements": 0,
+            "symmetry_factor": 1,
+            "friction_coefficient": c.mu,
+            "soil_moved_out_of_pile": 0.0,  # (nothing is relocated in r–z: see soil_inside_pile)
+            "soil_inside_pile": c.soil_inside(),
+            "worst_friction_excess": c.worst_friction_excess,
+        }
+
+    def pile_arrays(self) -> dict[str, np.ndarray]:
+        return {**self.contact.state_arrays(), "jack": np.array([self.head_force, self.jack_work])}
+
+    def restore_pile_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        self.contact.restore_arrays(arrays)
+        self.head_force, self.jack_work = (float(x) for x in arrays["jack"])
+
+    def history_preamble(self) -> str:
+        return (
+            "symmetry: axisymmetric model (r–z); qb, qs, base_force, shaft_force and head_force are of the whole "
+            "pile (the per-radian forces × 2π, no symmetry factor); energies, works, volumes and masses are of "
+            "the whole domain (× 2π)"
+        )
+
+    def cell_fields(self) -> dict[str, np.ndarray]:
+        """Cell data for output: φ, the stress components (rr, θθ, zz, rz; Pa), p, q, e, density (kg/m³,
+        without MGS) and, for hypoplasticity with intergranular strain, ρ = ‖δ‖/R."""
+        from ..config.materials import Hypoplastic
+        from ..materials.tensor import invariants_pq
+
+        f = self.field
+        phi = f.Vs / f.volume
+        soil = phi > PHI_MIN
+        p, q = invariants_pq(f.stress)
+        out = {"phi": phi}
+        for name, c in (("rr", 0), ("tt", 1), ("zz", 2), ("rz", 4)):
+            out[f"stress_{name}"] = f.stress[..., c]
+        out.update(
+            p=p,
+            q=q,
+            e=np.where(soil, f.state[..., 0], np.nan),
+            density=np.where(soil, f.mass / np.maximum(f.Vs, 1e-300) / f.scaling, 0.0),
+        )
+        mat = f.material
+        if isinstance(mat, Hypoplastic) and mat.intergranular_strain:
+            d = f.state[..., 1:7]
+            nd = np.sqrt(np.sum(d[..., :3] ** 2, axis=-1) + 2 * np.sum(d[..., 3:] ** 2, axis=-1))
+            out["rho"] = nd / mat.R
+        return out
+
+    def write_fields(self, run_dir: RunDirectory, index: int) -> list[tuple[Path, int]]:
+        f = self.field
+        g = f.grid
+        soil = write_rectilinear_rz(
+            run_dir.field_path("soil", index), g.r, g.z, self.cell_fields(), point_data={"velocity": f.v}
+        )
+        out = [(soil, 0)]
+        if self.pile is not None:  # the pile's half-section r ≤ a as a flat hexahedron in the same plane
+            a, zb = self.pile.radius, self.pile.z_base
+            zt = zb + self.geometry.length
+            quad = [(0.0, zb), (a, zb), (a, zt), (0.0, zt)]
+            pts = np.array([(r, 0.0, z) for r, z in quad] * 2)
+            shift = zb - self.geometry.z_tip
+            pd = {"displacement": np.tile([0.0, 0.0, shift], (8, 1))}
+            hexes = np.arange(8)[None, :]
+            out.append((write_unstructured_hex(run_dir.field_path("pile", index), pts, hexes, None, pd), 1))
+        return out
+
+
+def build_backend(scenario: Scenario) -> Backend:
+    """The backend of ``[domain] symmetry``: the soil field in its geostatic state (MGS applied, once), the
+    pile wished in place to its initial embedment and the contact."""
+    if scenario.domain.symmetry == "axisymmetric":
+        return AxisymmetricBackend(scenario)
+    return CartesianBackend(scenario)
