@@ -501,7 +501,7 @@ class Simulation:
             "diagnostic": self.diagnostic,
             "quasi_static": _verdict(self.max_energy_ratio),
             "max_inertia_ratio": self.max_inertia_ratio if self.max_inertia_ratio >= 0.0 else None,
-            "inertia_check": _inertia_verdict(self.max_inertia_ratio),
+            "inertia_check": _inertia_verdict(self.max_inertia_ratio, self.backend.symmetry),
             "energy_check_from_penetration": self._energy_check_start() if self.has_pile else 0.0,
             "restarts": self.restarts,
             "notes": self.notes,
