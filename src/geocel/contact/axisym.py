@@ -1,4 +1,8 @@
-"""Contact of a rigid pile with the axisymmetric (r–z) soil (issue 17, second increment).
+"""Contact of a pile with the axisymmetric (r–z) soil (issue 17, second increment; deformable piles: item 3).
+
+Written for a rigid pile (below); a solid or coupled pile body moves level by level: the base with its lowest
+level and each shaft node with the velocity interpolated at its elevation, and the forces go back to the body
+per level (:class:`AxisymmetricPileContact`).
 
 The grid is aligned with the pile: its radius a is a node line r = r[i_a] (the fine zone has cells of a/n),
 so the shaft is exactly the column of nodes i = i_a and no cell is cut by it. The pile occupies r < a above

@@ -7,7 +7,7 @@ talk to a backend only; the physics stays in the fields and contacts it wraps. T
 * :class:`CartesianBackend`: the 3D grid (quarter, half or full model), :class:`~geocel.solver.field.SoilField`
   with any pile (:mod:`geocel.bodies.pile`) and :class:`~geocel.contact.coupling.ContactCoupling`;
 * :class:`AxisymmetricBackend`: the r–z plane, :class:`~geocel.solver.axisym_field.AxisymmetricField` with the
-  rigid pile of :mod:`geocel.contact.axisym` (issue 17).
+  rigid pile of :mod:`geocel.contact.axisym` or a solid or coupled pile body (issue 17).
 
 Units of what a backend reports: forces returned by :meth:`Backend.advance` × ``force_factor`` are those on the
 whole pile (N); the field's energies, masses and volumes × ``extent_factor`` are those the outputs report (the
@@ -339,8 +339,9 @@ class CartesianBackend(Backend):
 
 class AxisymmetricBackend(Backend):
     """The r–z model: :class:`~geocel.grid.axisym.AxisymmetricGrid` from the ``[domain]`` keys, the rigid pile
-    of :mod:`geocel.contact.axisym` (its radius a node line of the grid; shaft friction and base friction μ,
-    base formulation ``[contact] formulation``). A pile embedded at the start is wished in place after the
+    of :mod:`geocel.contact.axisym` or a solid or coupled pile body of :mod:`geocel.bodies.pile` (a quarter
+    model; subcycled as in 3D), its radius a node line of the grid; shaft friction and base friction μ, base
+    formulation ``[contact] formulation``. A pile embedded at the start is wished in place after the
     geostatic state is built (the soil below its base keeps its overburden stress)."""
 
     symmetry = "axisymmetric"

@@ -147,7 +147,7 @@ class Simulation:
 
     The model is a :class:`~geocel.solver.backend.Backend` (``self.backend``): the 3D grid or, with ``[domain]
     symmetry = "axisymmetric"``, the r–z plane; ``field``, ``pile`` and ``contact`` are its parts (the r–z
-    pile is a :class:`~geocel.contact.axisym.RigidPileRZ`, its contact an
+    pile is a :class:`~geocel.contact.axisym.RigidPileRZ` or a solid or coupled body, its contact an
     :class:`~geocel.contact.axisym.AxisymmetricPileContact`).
     """
 
