@@ -10,7 +10,7 @@ coarse      0.15 m          1.5 m         z_pen + 2 m  quick parametric studies
 paper       0.1 m           1.5 m         12 m         about the paper's 200 000 cells
 ==========  ==============  ============  ===========  ==========================================
 
-With ``symmetry="axisymmetric"`` (the r–z plane, rigid pile only) the resolutions are those of
+With ``symmetry="axisymmetric"`` (the r–z plane, a rigid pile unless asked otherwise) the resolutions are those of
 :data:`AXISYMMETRIC_RESOLUTIONS`: fine cells that divide the pile radius (3, 6 and 12 cells per radius).
 """
 
@@ -61,7 +61,7 @@ def preset_dict(
     symmetry: str | None = None,
 ) -> dict:
     """The preset as a dict, with a resolution and the usual overrides applied. ``symmetry="axisymmetric"``:
-    the r–z model with a rigid pile (unless ``pile`` says otherwise, which the scenario then refuses) and
+    the r–z model with a rigid pile (unless ``pile`` says otherwise: solid and coupled piles run in r–z too) and
     the resolutions of :data:`AXISYMMETRIC_RESOLUTIONS` (default "demo")."""
     d = tomllib.loads(preset_text(name))
     resolutions = RESOLUTIONS

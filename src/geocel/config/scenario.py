@@ -122,8 +122,8 @@ class Domain(_Table):
     symmetry: Literal["quarter", "half", "full", "axisymmetric"] = Field(
         "quarter",
         description="modelled part: quarter (x, y ≥ 0), half (y ≥ 0) or full 3D grid, or axisymmetric: the "
-        "r–z plane (vertical loading of a pile on the axis only: no bending, lateral load or groups; rigid "
-        "pile only; the pile radius must be a multiple of fine_size; cylinder_mask is ignored)",
+        "r–z plane (vertical loading of a pile on the axis only: no bending, lateral load or groups; "
+        "flat-based piles only; the pile radius must be a multiple of fine_size; cylinder_mask is ignored)",
     )
     radius: float = Field(21.25, gt=0.0, description="lateral extent from the pile axis, m")
     cylinder_mask: bool = Field(True, description="mask cells beyond `radius` (container wall), else a box")
@@ -604,17 +604,10 @@ class Scenario(_Table):
             )
 
     def _check_axisymmetric_pile(self) -> None:
-        """The r–z mode has a rigid, flat-based pile whose radius is a node line of the grid (the fine cells
-        from the axis are fine_size wide, so the radius must be a whole number of them)."""
+        """The r–z mode has a flat-based pile (rigid, solid or coupled) whose radius is a node line of the grid
+        (the fine cells from the axis are fine_size wide, so the radius must be a whole number of them)."""
         assert self.pile is not None
         pile, dom = self.pile, self.domain
-        if pile.type != "rigid":
-            raise _invalid(
-                ("pile", "type"),
-                pile.type,
-                'symmetry = "axisymmetric" supports only a rigid pile for now (the solid and coupled piles are '
-                'not implemented in r–z): use type = "rigid", or a 3D symmetry (quarter, half, full)',
-            )
         if pile.tip != "flat":
             raise _invalid(
                 ("pile", "tip"), pile.tip, 'symmetry = "axisymmetric" supports only a flat tip for now'

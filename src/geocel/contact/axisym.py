@@ -1,4 +1,8 @@
-"""Contact of a rigid pile with the axisymmetric (r–z) soil (issue 17, second increment).
+"""Contact of a pile with the axisymmetric (r–z) soil (issue 17, second increment; deformable piles: item 3).
+
+Written for a rigid pile (below); a solid or coupled pile body moves level by level: the base with its lowest
+level and each shaft node with the velocity interpolated at its elevation, and the forces go back to the body
+per level (:class:`AxisymmetricPileContact`).
 
 The grid is aligned with the pile: its radius a is a node line r = r[i_a] (the fine zone has cells of a/n),
 so the shaft is exactly the column of nodes i = i_a and no cell is cut by it. The pile occupies r < a above
@@ -53,12 +57,13 @@ rim "base") at most 0.002 % of the embedded volume in the jacking benchmark (3�
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from numba import njit
 
-from ..bodies.pile import head_velocity
+from ..bodies.pile import ContactLoad, PileBody, Surface, head_velocity
 from ..euler.axisym import node_force_rz
 from ..euler.lagrange import PHI_MIN
 from ..materials.tensor import KERNEL_OPTIONS
@@ -72,17 +77,35 @@ BASE_OPTIONS = ("band", "edge")
 @dataclass
 class RigidPileRZ:
     """A rigid, closed-ended pile with a flat base on the axis: radius a (m), base elevation z_b (m, the
-    ground surface is z = 0) and vertical velocity (m/s, + up), prescribed by :meth:`advance`."""
+    ground surface is z = 0) and vertical velocity (m/s, + up), prescribed by :meth:`advance`.
+
+    It offers what :class:`AxisymmetricPileContact` asks of a pile body of :mod:`geocel.bodies.pile`
+    (``surface``, ``load``, ``symmetry_factor``, ``begin_step``/``end_step``), with one level: the whole pile
+    moves with the base."""
 
     radius: float
     z_base: float
     velocity: float = 0.0
     time: float = 0.0
+    #: the last contact load (whole pile, one level); kept for the interface, a rigid pile ignores it
+    load: ContactLoad = field(default_factory=lambda: ContactLoad.zero(1))
+    symmetry_factor: ClassVar[int] = 1
 
     @property
     def embedment(self) -> float:
         """Depth of the base below the ground surface (m)."""
         return -self.z_base
+
+    def surface(self) -> Surface:
+        """The contact surface: one level at the base, moving with the pile."""
+        z = self.z_base
+        return Surface(0.0, 0.0, self.radius, z, z, np.array([z]), np.array([[0.0, 0.0, self.velocity]]))
+
+    def begin_step(self) -> None:
+        pass
+
+    def end_step(self, dt: float) -> None:
+        pass
 
     def advance(self, dt: float, v_head: float) -> None:
         """Move down at ``v_head`` (m/s, > 0 downwards) over Δt: the velocity of the step n+½."""
@@ -162,13 +185,14 @@ def _edge_base(i, kc, t, nmass, v, fix, mtiny, vp, mu_b, c, out):
 
 
 @njit(**KERNEL_OPTIONS)
-def project_pile_rz(ia, kc, t_edge, nmass, cmass, v, fix, mtiny, vp, mu, mu_b, rim, dt, fn, ft, out):
+def project_pile_rz(ia, kc, t_edge, nmass, cmass, v, fix, mtiny, vp, vs, mu, mu_b, rim, dt, fn, ft, out):
     """Velocity projection of the soil nodes in contact with the rigid pile (module docstring), in place on v.
 
     ``ia``: node column of the shaft; ``kc``: node row at or below the base; ``t_edge``: < 0 for the band
     formulation, else where the base crosses the edges above row kc, (z_b − z_kc)/h;
-    ``vp``: the pile's vertical velocity; ``mu`` and ``mu_b``: shaft and base friction; ``rim``: the base's
-    condition at the corner r = a (0: not, 1: in full, 2: on the part of the rim nodes' mass under the base,
+    ``vp``: the vertical velocity of the pile's base; ``vs`` (nz+1): the shaft's vertical velocity at every
+    node row (a deformable pile's, interpolated between its levels; ``vp`` everywhere for a rigid one);
+    ``mu`` and ``mu_b``: shaft and base friction; ``rim``: the base's condition at the corner r = a (0: not, 1: in full, 2: on the part of the rim nodes' mass under the base,
     from the cells r < a of ``cmass``, the cell masses). Outputs (per radian, forces of the soil ON THE PILE,
     N/rad): ``fn``/``ft`` (nz+1) the normal (≥ 0: pressure) and vertical friction force at every shaft node
     (0 elsewhere); ``out`` (6): base (r, z), shaft (r, z), Σ f·v_pile of the forces on the soil (their
@@ -219,7 +243,7 @@ def project_pile_rz(ia, kc, t_edge, nmass, cmass, v, fix, mtiny, vp, mu, mu_b, r
         if o0 >= 0.0 or fix[i, k, 0]:
             continue  # separating (or held by the grid): no contact force
         dvn = -o0
-        t = o1 - vp
+        t = o1 - vs[k]
         lim = mu * dvn
         dvt = -t if abs(t) <= lim else (-lim if t > 0.0 else lim)  # |Δv_z| ≤ μ Δv_r
         if fix[i, k, 1]:
@@ -232,7 +256,7 @@ def project_pile_rz(ia, kc, t_edge, nmass, cmass, v, fix, mtiny, vp, mu, mu_b, r
         ft[k] = -f_t
         out[2] -= f_n
         out[3] -= f_t
-        out[4] += f_t * vp
+        out[4] += f_t * vs[k]
         out[5] += 1.0
 
 
@@ -271,9 +295,18 @@ def contact_work_rz(
 
 
 class AxisymmetricPileContact:
-    """Contact of a :class:`RigidPileRZ` with an :class:`~geocel.solver.axisym_field.AxisymmetricField`
-    (module docstring). Setting it up attaches it to the field (``field.contact``), whose step then calls
-    :meth:`before_nodes`, :meth:`apply` and :meth:`before_remap`.
+    """Contact of a pile with an :class:`~geocel.solver.axisym_field.AxisymmetricField` (module docstring).
+    Setting it up attaches it to the field (``field.contact``), whose step then calls :meth:`before_nodes`,
+    :meth:`apply` and :meth:`before_remap`.
+
+    ``pile``: a :class:`RigidPileRZ`, or any pile body of :mod:`geocel.bodies.pile` with a flat base on the
+    axis (rigid, solid, coupled; any of their symmetries: it only sets the load's scale). The contact reads
+    the body's surface (radius, base elevation, level elevations and velocities): the base moves with the
+    lowest level, a shaft node with the velocity interpolated at its elevation between the two levels around
+    it. It hands back, as the 3D contact does, a :class:`~geocel.bodies.pile.ContactLoad` of the modelled part
+    (the whole pile's forces, 2π × per radian, / ``symmetry_factor``): each shaft node's force shared linearly
+    between those two levels (vertical, radial = −f_n), the base's on the lowest level, and the soil mass tied
+    to each level's vertical motion (a sticking shaft node, a base node the base moved).
 
     ``friction``: shaft μ (≥ 0); ``base_friction``: base μ (0 smooth, ``math.inf`` rough); ``rim``: the
     node under the base's corner, "split", "base" or "shaft" (module docstring)."""
@@ -281,7 +314,7 @@ class AxisymmetricPileContact:
     def __init__(
         self,
         field,
-        pile: RigidPileRZ,
+        pile: RigidPileRZ | PileBody,
         friction: float,
         base_friction: float = 0.0,
         rim: str = "base",
@@ -295,10 +328,15 @@ class AxisymmetricPileContact:
         if rim not in RIM_OPTIONS:
             raise ValueError(f"rim = {rim!r}: choose one of {', '.join(RIM_OPTIONS)}")
         g = field.grid
-        ia = int(np.argmin(np.abs(g.r - pile.radius)))
-        if abs(g.r[ia] - pile.radius) > 1e-9 * pile.radius or ia == 0:
+        s = pile.surface()
+        if abs(s.z_apex - s.z_shoulder) > 1e-12 * max(1.0, abs(s.z_apex)) or s.cx != 0.0 or s.cy != 0.0:
+            raise ValueError("the axisymmetric contact needs a flat-based pile on the axis")
+        #: the pile's radius (m)
+        self.radius = a = float(s.radius)
+        ia = int(np.argmin(np.abs(g.r - a)))
+        if abs(g.r[ia] - a) > 1e-9 * a or ia == 0:
             raise ValueError(
-                f"the pile radius {pile.radius} m must be a node line of the grid (the nearest is "
+                f"the pile radius {a} m must be a node line of the grid (the nearest is "
                 f"r = {g.r[ia]:.6g} m): use fine cells of radius/n"
             )
         self.field = field
@@ -317,7 +355,7 @@ class AxisymmetricPileContact:
         self._v_old = np.zeros((0, 0, 2))
         self._kc = -1
         self._pile_motion = 0.0  # the pile's vertical displacement since the last remap, m
-        self._z_remap = pile.z_base  # the base's elevation at the last remap, m
+        self._z_remap = s.z_apex  # the base's elevation at the last remap, m
         #: forces of the last step on the whole pile (N, × 2π): base (r, z) and shaft (normal, z)
         self.base_force = np.zeros(2)
         self.shaft_force = np.zeros(2)
@@ -331,27 +369,38 @@ class AxisymmetricPileContact:
         field.contact = self
 
     # --- geometry ---------------------------------------------------------------------------------------
+    @property
+    def z_base(self) -> float:
+        """Elevation of the pile's base (m; the ground surface is z = 0)."""
+        return float(self.pile.surface().z_apex)
+
+    @property
+    def embedment(self) -> float:
+        """Depth of the base below the ground surface (m)."""
+        return -self.z_base
+
     def base_row(self) -> int:
         """Node row k_c at or just below the base (z[k_c] ≤ z_b, to 1e-9 of a cell)."""
         g = self.field.grid
         tol = 1e-9 * float(g.hz.min())
-        k = int(np.searchsorted(g.z, self.pile.z_base + tol, "right")) - 1
+        zb = self.z_base
+        k = int(np.searchsorted(g.z, zb + tol, "right")) - 1
         if k < 0:
-            raise ValueError(f"the pile's base z = {self.pile.z_base:.6g} m is below the grid")
+            raise ValueError(f"the pile's base z = {zb:.6g} m is below the grid")
         return k
 
     def pile_fraction(self, z_base: float | None = None) -> np.ndarray:
         """Fraction of every cell inside the pile (nr, nz): the columns r < a above the base (at ``z_base``,
         default the pile's), exact."""
         g = self.field.grid
-        zb = self.pile.z_base if z_base is None else z_base
+        zb = self.z_base if z_base is None else z_base
         out = np.zeros(g.shape)
         out[: self.ia, :] = np.clip((g.z[1:] - zb) / g.hz, 0.0, 1.0)[None, :]
         return out
 
     def pile_volume(self) -> float:
         """Embedded volume of the pile below the ground surface z = 0 (m³, the whole pile)."""
-        return math.pi * self.pile.radius**2 * max(self.pile.embedment, 0.0)
+        return math.pi * self.radius**2 * max(self.embedment, 0.0)
 
     def wish_in_place(self) -> float:
         """Take the soil out of the pile's volume after the geostatic state is built (the soil below the
@@ -382,9 +431,13 @@ class AxisymmetricPileContact:
     # --- the step -----------------------------------------------------------------------------------------
     def step(self, v_head: float) -> None:
         """One step of the jacked pile and the soil: the pile moves at ``v_head`` (m/s, > 0 down) over the
-        field's Δt, then the field steps (with this contact)."""
+        field's Δt (in one step: the caller keeps Δt within the pile's stable step), then the field steps
+        (with this contact)."""
         dt = self.field.dt
-        self.pile.advance(dt, v_head)
+        p = self.pile
+        p.begin_step()
+        p.advance(dt, v_head)
+        p.end_step(dt)
         self.field.step(dt)
 
     def before_nodes(self) -> None:
@@ -401,12 +454,17 @@ class AxisymmetricPileContact:
         v_trial = f.v[: ia + 1, kc:].copy()
         out = self._out
         fn, ft = self.shaft_normal, self.shaft_friction
-        vp = self.pile.velocity
+        s = self.pile.surface()
+        vp = float(s.layer_v[0, 2])  # the base moves with the lowest level
+        if s.layer_z.shape[0] == 1:
+            vs = np.full(f.grid.nz + 1, vp)
+        else:  # (clamped to the end levels beyond them, as in 3D)
+            vs = np.interp(f.grid.z, s.layer_z, s.layer_v[:, 2])
         t_edge = -1.0
         if self.base == "edge" and kc + 1 <= f.grid.nz:
-            t_edge = min(max((self.pile.z_base - f.grid.z[kc]) / f.grid.hz[kc], 0.0), 1.0)
+            t_edge = min(max((s.z_apex - f.grid.z[kc]) / f.grid.hz[kc], 0.0), 1.0)
         project_pile_rz(
-            ia, kc, t_edge, f.nmass, f.mass, f.v, f.fix, f.mass_tiny, vp, self.mu, self.mu_base,
+            ia, kc, t_edge, f.nmass, f.mass, f.v, f.fix, f.mass_tiny, vp, vs, self.mu, self.mu_base,
             RIM_OPTIONS.index(self.rim), dt,
             fn, ft, out,
         )  # fmt: skip
@@ -422,6 +480,7 @@ class AxisymmetricPileContact:
         self.base_force[:] = two_pi * out[0], two_pi * out[1]
         self.shaft_force[:] = two_pi * float(fn.sum()), two_pi * out[3]
         self.contact_nodes = int(out[5])
+        self.pile.load = self._level_load(s, kc, v_trial, dt)
         self._pile_motion += vp * dt
         w = self._work
         contact_work_rz(
@@ -437,11 +496,48 @@ class AxisymmetricPileContact:
         self.soil_work += w[4]
         self.friction_work += out[4] * dt - w[4]
 
+    def _level_load(self, s: Surface, kc: int, v_trial: np.ndarray, dt: float) -> ContactLoad:
+        """The step's forces per level of the pile (the 3D contact's :class:`ContactLoad`, modelled part):
+        every shaft node's shared linearly between the two levels around its elevation, the base's on the
+        lowest level; the tied soil mass: a shaft node that sticks (|f_t| < μ f_n), a base or interior node
+        whose vertical velocity the base changed."""
+        f = self.field
+        z = f.grid.z
+        lz = s.layer_z
+        nl = lz.shape[0]
+        scale = 2.0 * math.pi / self.pile.symmetry_factor
+        if nl == 1:
+            lo = np.zeros(z.shape[0], dtype=np.int64)
+            w = np.zeros(z.shape[0])
+        else:
+            lo = np.clip(np.searchsorted(lz, z, "right") - 1, 0, nl - 2)
+            w = np.clip((z - lz[lo]) / (lz[lo + 1] - lz[lo]), 0.0, 1.0)
+        hi = np.minimum(lo + 1, nl - 1)
+        fn, ft = self.shaft_normal, self.shaft_friction
+        ia = self.ia
+        stick = (fn > 0.0) & (np.abs(ft) < self.mu * fn * (1.0 - 1e-12)) & ~f.fix[ia, :, 1]
+        m_shaft = np.where(stick, f.nmass[ia], 0.0)
+        layer = np.zeros((nl, 4))
+        tied = np.zeros((nl, 2))
+        for col, val in ((0, ft), (1, -fn)):
+            layer[:, col] = np.bincount(lo, (1.0 - w) * val, nl) + np.bincount(hi, w * val, nl)
+        tied[:, 0] = np.bincount(lo, (1.0 - w) * m_shaft, nl) + np.bincount(hi, w * m_shaft, nl)
+        out = self._out
+        layer[0, 2] = out[1]
+        layer[0, 3] = out[0]
+        # base and interior nodes (i < i_a, and the rim node when the base acts on it) the base moved
+        moved = f.v[: ia + 1, kc:, 1] != v_trial[:, :, 1]
+        moved[ia, 1 if self.rim != "shaft" else 0 :] = False
+        tied[0, 1] = float(f.nmass[: ia + 1, kc:][moved].sum())
+        base = np.array([0.0, 0.0, out[1]])
+        shaft = np.array([0.0, 0.0, out[3]])
+        return ContactLoad(scale * layer, scale * base, scale * shaft, scale * tied, dt)
+
     def before_remap(self, displacement: np.ndarray) -> None:
         """No inward mesh motion through the shaft's faces (u_r ≥ 0 on the shaft column from the base row
         up), so the remap cannot carry soil into the pile (module docstring)."""
         ia, kc = self.ia, self.base_row()
-        self._z_remap = self.pile.z_base
+        self._z_remap = self.z_base
         col = displacement[ia, kc:, 0]
         neg = col < 0.0
         if neg.any():
@@ -466,9 +562,16 @@ class AxisymmetricPileContact:
 
     # --- checkpoints -----------------------------------------------------------------------------------------
     def state_arrays(self) -> dict[str, np.ndarray]:
-        """Everything of the pile and the contact a restart needs (copies), by name."""
+        """Everything of the pile and the contact a restart needs (copies), by name (a pile body's own arrays
+        with the prefix ``body_``)."""
         p = self.pile
-        scalars = [p.z_base, p.velocity, p.time, self._pile_motion, self._z_remap, self.soil_work]
+        body: dict[str, np.ndarray] = {}
+        if isinstance(p, RigidPileRZ):
+            scalars = [p.z_base, p.velocity, p.time]
+        else:
+            scalars = [math.nan] * 3
+            body = {f"body_{k}": v for k, v in p.state_arrays().items()}
+        scalars += [self._pile_motion, self._z_remap, self.soil_work]
         scalars += [self.friction_work, self.worst_friction_excess, self.clamped_motion, self.contact_nodes]
         return {
             "scalars": np.array(scalars, dtype=float),
@@ -476,13 +579,18 @@ class AxisymmetricPileContact:
             "shaft_force": self.shaft_force.copy(),
             "shaft_normal": self.shaft_normal.copy(),
             "shaft_friction": self.shaft_friction.copy(),
+            **body,
         }
 
     def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
         """The state saved by :meth:`state_arrays`."""
         sc = [float(x) for x in arrays["scalars"]]
         p = self.pile
-        p.z_base, p.velocity, p.time, self._pile_motion, self._z_remap, self.soil_work = sc[:6]
+        if isinstance(p, RigidPileRZ):
+            p.z_base, p.velocity, p.time = sc[:3]
+        else:
+            p.restore_arrays({k[5:]: v for k, v in arrays.items() if k.startswith("body_")})
+        self._pile_motion, self._z_remap, self.soil_work = sc[3:6]
         self.friction_work, self.worst_friction_excess, self.clamped_motion = sc[6:9]
         self.contact_nodes = int(sc[9])
         for name in ("base_force", "shaft_force", "shaft_normal", "shaft_friction"):
@@ -490,16 +598,16 @@ class AxisymmetricPileContact:
 
     # --- what users look at ----------------------------------------------------------------------------------
     def embedded_length(self) -> float:
-        return max(self.pile.embedment, 0.0)
+        return max(self.embedment, 0.0)
 
     def qb(self) -> float:
         """Base resistance F_b,z/(π a²) (Pa, positive = resistance)."""
-        return self.base_force[1] / (math.pi * self.pile.radius**2)
+        return self.base_force[1] / (math.pi * self.radius**2)
 
     def qs(self) -> float:
         """Mean shaft friction F_s,z/(2π a L) over the embedded length L (Pa, positive = resistance)."""
         L = self.embedded_length()
-        return self.shaft_force[1] / (2.0 * math.pi * self.pile.radius * L) if L > 0.0 else 0.0
+        return self.shaft_force[1] / (2.0 * math.pi * self.radius * L) if L > 0.0 else 0.0
 
     def shaft_pressure(self) -> np.ndarray:
         """Normal stress on the shaft at every node (Pa, ≥ 0), f_n/(a h_trib) with h_trib half of each
@@ -508,7 +616,7 @@ class AxisymmetricPileContact:
         trib = np.zeros(g.nz + 1)
         trib[:-1] += 0.5 * g.hz
         trib[1:] += 0.5 * g.hz
-        return self.shaft_normal / (self.pile.radius * trib)
+        return self.shaft_normal / (self.radius * trib)
 
 
 def jack(
@@ -520,12 +628,12 @@ def jack(
 ) -> None:
     """Jack the pile until its base is ``depth`` (m) below where it started, at ``velocity`` (m/s) after a
     half-cosine start over ``ramp`` (m); ``callback(contact)`` after every step."""
-    pile, f = contact.pile, contact.field
-    z_end = pile.z_base - depth
+    f = contact.field
+    z_end = contact.z_base - depth
     t0 = f.time
-    while pile.z_base > z_end + 1e-12 * max(depth, 1.0):
+    while (zb := contact.z_base) > z_end + 1e-12 * max(depth, 1.0):
         vh = head_velocity(f.time - t0 + 0.5 * f.dt, velocity, ramp)
-        vh = min(vh, (pile.z_base - z_end) / f.dt)
+        vh = min(vh, (zb - z_end) / f.dt)
         contact.step(vh)
         if callback is not None:
             callback(contact)

@@ -7,7 +7,7 @@ talk to a backend only; the physics stays in the fields and contacts it wraps. T
 * :class:`CartesianBackend`: the 3D grid (quarter, half or full model), :class:`~geocel.solver.field.SoilField`
   with any pile (:mod:`geocel.bodies.pile`) and :class:`~geocel.contact.coupling.ContactCoupling`;
 * :class:`AxisymmetricBackend`: the r–z plane, :class:`~geocel.solver.axisym_field.AxisymmetricField` with the
-  rigid pile of :mod:`geocel.contact.axisym` (issue 17).
+  rigid pile of :mod:`geocel.contact.axisym` or a solid or coupled pile body (issue 17).
 
 Units of what a backend reports: forces returned by :meth:`Backend.advance` × ``force_factor`` are those on the
 whole pile (N); the field's energies, masses and volumes × ``extent_factor`` are those the outputs report (the
@@ -128,6 +128,35 @@ class Backend:
         the pile (N, the model's: × ``force_factor`` for the whole pile; zeros without a pile)."""
         raise NotImplementedError
 
+    def _govern_with_body(self, dt: float, gov: dict, substeps: int) -> tuple[float, dict, int]:
+        """Global Δt = min(soil, pile body), or the soil's Δt with the pile subcycled (``[solver]
+        pile_subcycling``, a body that allows it)."""
+        solver = self.scenario.solver
+        dtp, part, e = self.pile.stable_time_step()
+        dtp *= solver.safety_factor
+        gov["pile_dt"] = dtp
+        gov["pile_element"] = {part: int(e)}
+        if dtp < dt:
+            if solver.pile_subcycling and self.pile.subcycling:
+                substeps = math.ceil(dt / dtp * (1.0 + 1e-12))
+            else:
+                dt = dtp
+                gov = {**gov, "body": f"pile ({self.pile.kind})", "element": {part: int(e)}, "dt": dt}
+        gov["pile_substeps"] = substeps
+        return dt, gov, substeps
+
+    def _advance_body(self, dt: float, velocity: float, ramp: float, substeps: int) -> None:
+        """The pile body over Δt in ``substeps`` equal substeps (head velocity at each substep's midpoint; the
+        contact load of the last soil step is held), then the soil step."""
+        f, pile = self.field, self.pile
+        h = dt / substeps
+        t0 = f.time
+        pile.begin_step()
+        for s in range(substeps):
+            pile.advance(h, head_velocity(t0 + (s + 0.5) * h, velocity, ramp))
+        pile.end_step(dt)
+        f.step(dt)
+
     # --- the pile ------------------------------------------------------------------------------------------
     def tip_depth(self) -> float:
         """Depth of the pile tip below the ground surface (m; 0 without a pile)."""
@@ -208,17 +237,7 @@ class CartesianBackend(Backend):
         pile_subcycling``)."""
         dt, gov, substeps = super().governing()
         if self.pile is not None:
-            solver = self.scenario.solver
-            dtp, part, e = self.pile.stable_time_step()
-            dtp *= solver.safety_factor
-            gov["pile_dt"] = dtp
-            gov["pile_element"] = {part: int(e)}
-            if dtp < dt:
-                if solver.pile_subcycling and self.pile.subcycling:
-                    substeps = math.ceil(dt / dtp * (1.0 + 1e-12))
-                else:
-                    dt = dtp
-                    gov = {**gov, "body": f"pile ({self.pile.kind})", "element": {part: int(e)}, "dt": dt}
+            return self._govern_with_body(dt, gov, substeps)
         gov["pile_substeps"] = substeps
         return dt, gov, substeps
 
@@ -229,13 +248,7 @@ class CartesianBackend(Backend):
         if pile is None:
             f.step(dt)
             return 0.0, 0.0, 0.0
-        h = dt / substeps
-        t0 = f.time
-        pile.begin_step()
-        for s in range(substeps):
-            pile.advance(h, head_velocity(t0 + (s + 0.5) * h, velocity, ramp))
-        pile.end_step(dt)
-        f.step(dt)
+        self._advance_body(dt, velocity, ramp, substeps)
         fc = self.contact.forces
         return float(fc.base[2]), float(fc.shaft[2]), float(pile.head_force)
 
@@ -326,8 +339,9 @@ class CartesianBackend(Backend):
 
 class AxisymmetricBackend(Backend):
     """The r–z model: :class:`~geocel.grid.axisym.AxisymmetricGrid` from the ``[domain]`` keys, the rigid pile
-    of :mod:`geocel.contact.axisym` (its radius a node line of the grid; shaft friction and base friction μ,
-    base formulation ``[contact] formulation``). A pile embedded at the start is wished in place after the
+    of :mod:`geocel.contact.axisym` or a solid or coupled pile body of :mod:`geocel.bodies.pile` (a quarter
+    model; subcycled as in 3D), its radius a node line of the grid; shaft friction and base friction μ, base
+    formulation ``[contact] formulation``. A pile embedded at the start is wished in place after the
     geostatic state is built (the soil below its base keeps its overburden stress)."""
 
     symmetry = "axisymmetric"
@@ -339,6 +353,7 @@ class AxisymmetricBackend(Backend):
         from .axisym_field import AxisymmetricField
 
         super().__init__(scenario)
+        self._rigid_type = RigidPileRZ
         d = scenario.domain
         grid = AxisymmetricGrid.graded(
             radius=d.radius,
@@ -363,7 +378,15 @@ class AxisymmetricBackend(Backend):
         p = scenario.pile
         if p is not None:
             mu = scenario.contact.friction_coefficient(mat)
-            pile = RigidPileRZ(0.5 * p.diameter, -p.initial_embedment)
+            if p.type == "rigid":
+                pile = RigidPileRZ(0.5 * p.diameter, -p.initial_embedment)
+            else:
+                # the 3D body as it is (physics written once); a quarter model carries the axisymmetric load
+                # exactly (the contact hands it a quarter of the whole pile's forces) and holds its beam or
+                # mesh to the vertical modes (no bending from round-off)
+                from .simulation import build_pile_body
+
+                pile = build_pile_body(scenario, symmetry="quarter")
             self.contact = AxisymmetricPileContact(
                 f, pile, friction=mu, base_friction=mu, base=scenario.contact.formulation
             )
@@ -385,8 +408,15 @@ class AxisymmetricBackend(Backend):
         g = self.field.grid
         return g.r, g.z
 
+    @property
+    def _body(self) -> bool:
+        """Whether the pile is a body of :mod:`geocel.bodies.pile` (solid, coupled), not the rigid r–z pile."""
+        return self.pile is not None and not isinstance(self.pile, self._rigid_type)
+
     def governing(self) -> tuple[float, dict, int]:
         dt, gov, substeps = super().governing()
+        if self._body:  # as in 3D: the pile's stable step, subcycled or governing
+            return self._govern_with_body(dt, gov, substeps)
         if self.pile is not None:  # (rigid: never governs)
             gov.update(pile_dt=math.inf, pile_element={"rigid": -1}, pile_substeps=1)
         return dt, gov, substeps
@@ -396,23 +426,36 @@ class AxisymmetricBackend(Backend):
         if self.pile is None:
             f.step(dt)
             return 0.0, 0.0, 0.0
+        c = self.contact
+        if self._body:
+            self._advance_body(dt, velocity, ramp, substeps)
+            k = self.pile.symmetry_factor  # (the body is a quarter model: its head force × 4)
+            self.head_force = float(self.pile.head_force) * k
+            self.jack_work = float(self.pile.work) * k
+            return float(c.base_force[1]), float(c.shaft_force[1]), self.head_force
         v_head = head_velocity(f.time + 0.5 * dt, velocity, ramp)
         self.pile.advance(dt, v_head)
         f.step(dt)
-        c = self.contact
         fb, fs = float(c.base_force[1]), float(c.shaft_force[1])
         self.head_force = fb + fs  # a rigid pile: the jack carries the soil's whole vertical force
         self.jack_work += self.head_force * v_head * dt
         return fb, fs, self.head_force
 
     def tip_depth(self) -> float:
-        return self.pile.embedment if self.pile is not None else 0.0
+        return self.contact.embedment if self.pile is not None else 0.0
+
+    def pile_energies(self, v_ref: float) -> tuple[float, float]:
+        if not self._body:
+            return 0.0, 0.0
+        k = self.pile.symmetry_factor / self.extent_factor  # the field's extent: per radian
+        return self.pile.kinetic_energy(v_ref) * k, self.pile.strain_energy() * k
 
     def pile_history(self) -> dict[str, float]:
         c = self.contact
+        k = self.pile.symmetry_factor if self._body else 0.0
         return {
-            "pile_kinetic_energy": 0.0,
-            "pile_strain_energy": 0.0,
+            "pile_kinetic_energy": self.pile.kinetic_energy() * k if self._body else 0.0,
+            "pile_strain_energy": self.pile.strain_energy() * k if self._body else 0.0,
             "friction_work": c.friction_work * self.extent_factor,
             "jack_work": self.jack_work,
             "soil_inside_pile": c.soil_inside(),
@@ -421,8 +464,9 @@ class AxisymmetricBackend(Backend):
     def pile_summary(self) -> dict[str, Any]:
         c = self.contact
         return {
-            "pile_type": "rigid",
-            "pile_elements": 0,
+            "pile_type": self.pile.kind if self._body else "rigid",
+            "pile_elements": self.pile.n_elements if self._body else 0,
+            "pile_model": "quarter (axisymmetric load)" if self._body else "r–z",
             "symmetry_factor": 1,
             "friction_coefficient": c.mu,
             "soil_moved_out_of_pile": 0.0,  # (nothing is relocated in r–z: see soil_inside_pile)
@@ -478,7 +522,7 @@ class AxisymmetricBackend(Backend):
         )
         out = [(soil, 0)]
         if self.pile is not None:  # the pile's half-section r ≤ a as a flat hexahedron in the same plane
-            a, zb = self.pile.radius, self.pile.z_base
+            a, zb = self.contact.radius, self.contact.z_base
             zt = zb + self.geometry.length
             quad = [(0.0, zb), (a, zb), (a, zt), (0.0, zt)]
             pts = np.array([(r, 0.0, z) for r, z in quad] * 2)

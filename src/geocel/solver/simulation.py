@@ -109,15 +109,16 @@ def build_field(scenario: Scenario, grid: Grid | None = None) -> SoilField:
     return field
 
 
-def build_pile_body(scenario: Scenario) -> PileBody:
-    """The pile of the scenario (MGS applied to its density when ``[scaling] scale_pile_density``)."""
+def build_pile_body(scenario: Scenario, symmetry: str | None = None) -> PileBody:
+    """The pile of the scenario (MGS applied to its density when ``[scaling] scale_pile_density``), modelled
+    with ``symmetry`` (default the domain's)."""
     p = scenario.pile
     geom = PileGeometry.embedded(p.diameter, p.length, p.initial_embedment, tip=p.tip, tip_angle=p.tip_angle)
     S = scenario.scaling.mass_gravity if scenario.scaling.scale_pile_density else 1.0
     return build_pile(
         p.type,
         geom,
-        scenario.domain.symmetry,
+        symmetry or scenario.domain.symmetry,
         p.element_size or scenario.domain.fine_size,
         p.material.youngs_modulus,
         p.material.poisson_ratio,
@@ -146,7 +147,7 @@ class Simulation:
 
     The model is a :class:`~geocel.solver.backend.Backend` (``self.backend``): the 3D grid or, with ``[domain]
     symmetry = "axisymmetric"``, the r–z plane; ``field``, ``pile`` and ``contact`` are its parts (the r–z
-    pile is a :class:`~geocel.contact.axisym.RigidPileRZ`, its contact an
+    pile is a :class:`~geocel.contact.axisym.RigidPileRZ` or a solid or coupled body, its contact an
     :class:`~geocel.contact.axisym.AxisymmetricPileContact`).
     """
 
