@@ -18,9 +18,10 @@ from dataclasses import dataclass, field
 from time import perf_counter
 
 import numpy as np
-from numba import njit, prange
+from numba import get_num_threads, njit
 
 from ..euler.axisym import (
+    FORCE_FACTORS_RZ,
     HOURGLASS_STATE_RZ,
     advance_nodes_rz,
     characteristic_length_rz,
@@ -44,21 +45,20 @@ from .field import (
 )
 
 
-@njit(parallel=True, **KERNEL_OPTIONS)
+@njit(**KERNEL_OPTIONS)
 def _accumulate_rz(rr, rz, v, dt, u):
-    """u ← u + v Δt at every node; returns the largest |u_d|/spacing (the pending remap's Courant number)."""
+    """u ← u + v Δt at every node; returns the largest |u_d|/spacing (the pending remap's Courant number).
+    Serial: a few flops per node, less than what a parallel region costs to start on busy cores."""
     n1, n2, _ = v.shape
-    cmax = np.zeros(n1)
-    for i in prange(n1):
-        c = 0.0
+    c = 0.0
+    for i in range(n1):
         for k in range(n2):
             a = u[i, k, 0] + dt * v[i, k, 0]
             b = u[i, k, 1] + dt * v[i, k, 1]
             u[i, k, 0] = a
             u[i, k, 1] = b
             c = max(c, abs(a) * rr[i], abs(b) * rz[k])
-        cmax[i] = c
-    return cmax.max()
+    return c
 
 
 @njit(**KERNEL_OPTIONS)
@@ -124,6 +124,7 @@ class AxisymmetricField(FieldBalances):
         self.external_force = np.zeros(nshape + (2,))
         self.reaction = np.zeros(nshape + (2,))
         self.u_remap = np.zeros(nshape + (2,))
+        self._force_factors = np.empty(shape + (FORCE_FACTORS_RZ,))  # scratch of the nodal pass
         self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / node_spacing(g.hz))
         self.time = 0.0
         self.step_count = 0
@@ -237,7 +238,7 @@ class AxisymmetricField(FieldBalances):
         ke, dEi, dEv, dEh, wg, wx = advance_nodes_rz(
             self.hr, self.hz, self.rc, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass, self.v,
             self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
-            self.mass_tiny,
+            self.mass_tiny, self._force_factors,
         )  # fmt: skip
         if contact is not None:
             contact.apply(dt)
@@ -246,6 +247,7 @@ class AxisymmetricField(FieldBalances):
             self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
             self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength, self._max_substep,
+            8 * get_num_threads(),
         )  # fmt: skip
         if not (math.isfinite(ke) and math.isfinite(dEi)):
             raise InstabilityError(
