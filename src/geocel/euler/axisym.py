@@ -296,7 +296,8 @@ def update_cells_rz(
     pressure q and the hourglass resistance for the next nodal pass (``hg``: per unit cell mass, so a cell
     the remap has nearly emptied pushes proportionally less). Cells below :data:`PHI_MIN` are set
     stress-free. ``state[..., hoff:hoff + 2]`` holds the hourglass generalised stresses (Pa). ``nchunk``: the
-    rows are dealt round-robin to that many chunks of work (a few per thread balances the threads).
+    rows are dealt round-robin to that many chunks of work (the field gives one per thread: each thread
+    then takes every nchunk-th row, which balances them to within a row).
 
     Returns (stable Δt of the cells, flat index of the cell governing it), with the viscosity correction of
     the explicit scheme as in 3D and L_e = :func:`characteristic_length_rz`."""

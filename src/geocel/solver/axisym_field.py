@@ -247,7 +247,7 @@ class AxisymmetricField(FieldBalances):
             self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
             self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength, self._max_substep,
-            8 * get_num_threads(),
+            get_num_threads(),
         )  # fmt: skip
         if not (math.isfinite(ke) and math.isfinite(dEi)):
             raise InstabilityError(
