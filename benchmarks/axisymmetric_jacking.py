@@ -8,11 +8,13 @@ a/n out to 4a and down to the final depth + 1 m, then growing by 15 % per cell u
 the node line r = a. Contact: :mod:`geocel.contact.axisym`.
 
     NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_jacking.py --cells-per-radius 6 [--penetration 1.2]
-        [--scaling 10] [--velocity 0.5] [--base band|edge] [--rim base|split|shaft]
+        [--scaling 10] [--velocity 0.5] [--base band|edge] [--rim base|split|shaft] [--profile]
 
 Prints, at every 0.1 m of base depth, q_b (MPa) and q_s (kPa), each the mean over the steps within ±0.025 m
 of that depth (the base crosses a node row every a/n: the instantaneous values ripple with that period),
-then the cells, steps, wall time, mass error, soil left inside the pile and the largest friction excess.
+then the cells, steps, wall time, mass error, soil left inside the pile and the largest friction excess;
+``--profile`` adds where the wall time went (the field's phase timers: nodal pass with the contact, cell
+update, remap, bookkeeping; the rest is the jacking loop and the recording of q_b/q_s).
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ def run(
     every: float = 0.1,
     verbose: bool = True,
     raw: bool = False,
+    profile: bool = False,
 ) -> dict:
     sc = preset_scenario("deeks-white")
     mat = sc.soil.material
@@ -97,6 +100,7 @@ def run(
         "soil_inside": c.soil_inside() / c.pile_volume(),
         "friction_excess": c.worst_friction_excess,
         "energy_error": f.energy_balance_error() / max(f.energy["external_work"], 1e-300),
+        "timers": dict(f.timers),
     }
     if raw:  # every step's values and the final field, for studies that post-process them
         out.update(depth=depth, qb=qb, qs=qs, field=f, contact=c)
@@ -109,6 +113,16 @@ def run(
             f"soil inside the pile {100 * out['soil_inside']:.3f} % of its embedded volume, friction excess "
             f"{out['friction_excess']:.1e}, energy balance {100 * out['energy_error']:.2f} % of the work"
         )
+    if profile:
+        # the first steps also load the compiled kernels from numba's cache (or compile them)
+        rest = wall - sum(f.timers.values())
+        label = {"nodes": "nodal pass and contact", "cells": "cell update (soil model)"}
+        parts = [(label.get(k, k), t) for k, t in f.timers.items()] + [("jacking loop and recording", rest)]
+        print(f"where the wall time went ({wall / max(f.step_count, 1) * 1e6:.0f} µs per step):")
+        for name, t in parts:
+            print(
+                f"  {name:28s} {t:8.2f} s {100 * t / wall:5.1f} %  {t / max(f.step_count, 1) * 1e6:8.1f} µs/step"
+            )
     return out
 
 
@@ -121,10 +135,14 @@ def main() -> None:
     ap.add_argument("--rim", default="base", choices=("base", "split", "shaft"))
     ap.add_argument("--base", default="band", choices=("band", "edge"))
     ap.add_argument("--safety-factor", type=float, default=None, help="Δt = this × the stable step (0.9)")
+    ap.add_argument("--profile", action="store_true", help="print where the wall time went")
     a = ap.parse_args()
     if not (a.cells_per_radius >= 1 and a.penetration > 0 and math.isfinite(a.penetration)):
         ap.error("cells per radius ≥ 1 and a positive penetration, please")
-    run(a.cells_per_radius, a.penetration, a.scaling, a.velocity, a.rim, a.base, a.safety_factor)
+    run(
+        a.cells_per_radius, a.penetration, a.scaling, a.velocity, a.rim, a.base, a.safety_factor,
+        profile=a.profile,
+    )  # fmt: skip
 
 
 if __name__ == "__main__":

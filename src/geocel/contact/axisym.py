@@ -56,6 +56,7 @@ rim "base") at most 0.002 % of the embedded volume in the jacking benchmark (3�
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, field
 from typing import ClassVar
@@ -294,6 +295,38 @@ def contact_work_rz(
             out[4] += 0.5 * m * (dr * (v_old[i, kk, 0] + v[i, k, 0]) + dz * (v_old[i, kk, 1] + v[i, k, 1]))
 
 
+@njit(**KERNEL_OPTIONS)
+def contact_step_rz(
+    ia, kc, t_edge, hr, hz, rc, Vs, mass, stress, q, hg, nmass, v, fix, mtiny, gravity, vp, vs, mu, mu_b, rim,
+    dt, v_old, v_trial, fn, ft, out, work,
+):  # fmt: skip
+    """One step's contact in one call (no Python between the parts): keep the trial velocities of the nodes
+    [0, ia] × [kc, nz] in ``v_trial``, :func:`project_pile_rz`, then :func:`contact_work_rz` with ``v_old``
+    (the same nodes before the nodal pass; both buffers hold the full columns 0..ia, indexed like ``v``).
+    Returns (the largest (|f_t| − μ f_n)/f_n over the shaft nodes in contact, −inf without any; whether a
+    friction force acts without a normal force; Σ f_n)."""
+    nz1 = nmass.shape[1]
+    for i in range(ia + 1):
+        for k in range(kc, nz1):
+            v_trial[i, k, 0] = v[i, k, 0]
+            v_trial[i, k, 1] = v[i, k, 1]
+    project_pile_rz(ia, kc, t_edge, nmass, mass, v, fix, mtiny, vp, vs, mu, mu_b, rim, dt, fn, ft, out)
+    worst = -np.inf
+    stray = False
+    fsum = 0.0
+    for k in range(nz1):
+        if fn[k] > 0.0:
+            worst = max(worst, (abs(ft[k]) - mu * fn[k]) / fn[k])
+        elif ft[k] != 0.0:
+            stray = True
+        fsum += fn[k]
+    contact_work_rz(
+        ia, kc, hr, hz, rc, Vs, mass, stress, q, hg, nmass, mtiny, gravity, dt, v_old[:, kc:], v_trial[:, kc:], v,
+        work,
+    )  # fmt: skip
+    return worst, stray, fsum
+
+
 class AxisymmetricPileContact:
     """Contact of a pile with an :class:`~geocel.solver.axisym_field.AxisymmetricField` (module docstring).
     Setting it up attaches it to the field (``field.contact``), whose step then calls :meth:`before_nodes`,
@@ -344,6 +377,7 @@ class AxisymmetricPileContact:
         self.mu = float(friction)
         self.mu_base = float(base_friction)
         self.rim = rim
+        self._rim_code = RIM_OPTIONS.index(rim)
         self.base = base
         self.ia = ia
         nz1 = g.nz + 1
@@ -352,8 +386,13 @@ class AxisymmetricPileContact:
         self.shaft_friction = np.zeros(nz1)
         self._out = np.zeros(6)
         self._work = np.zeros(5)
-        self._v_old = np.zeros((0, 0, 2))
+        # the nodes of the columns 0..ia before the nodal pass and after it (trial), reused every step
+        self._v_old = np.zeros((ia + 1, nz1, 2))
+        self._v_trial = np.zeros((ia + 1, nz1, 2))
         self._kc = -1
+        # base_row() every step: the grid's node elevations as a list (bisect) and the tolerance, once
+        self._z_nodes = g.z.tolist()
+        self._row_tol = 1e-9 * float(g.hz.min())
         self._pile_motion = 0.0  # the pile's vertical displacement since the last remap, m
         self._z_remap = s.z_apex  # the base's elevation at the last remap, m
         #: forces of the last step on the whole pile (N, × 2π): base (r, z) and shaft (normal, z)
@@ -381,10 +420,8 @@ class AxisymmetricPileContact:
 
     def base_row(self) -> int:
         """Node row k_c at or just below the base (z[k_c] ≤ z_b, to 1e-9 of a cell)."""
-        g = self.field.grid
-        tol = 1e-9 * float(g.hz.min())
         zb = self.z_base
-        k = int(np.searchsorted(g.z, zb + tol, "right")) - 1
+        k = bisect.bisect_right(self._z_nodes, zb + self._row_tol) - 1
         if k < 0:
             raise ValueError(f"the pile's base z = {zb:.6g} m is below the grid")
         return k
@@ -442,7 +479,7 @@ class AxisymmetricPileContact:
 
     def before_nodes(self) -> None:
         self._kc = kc = self.base_row()
-        self._v_old = self.field.v[: self.ia + 1, kc:].copy()
+        self._v_old[:, kc:] = self.field.v[: self.ia + 1, kc:]
 
     def apply(self, dt: float) -> None:
         """Project the trial velocities (in place) and record the forces and the work of the step."""
@@ -451,9 +488,7 @@ class AxisymmetricPileContact:
             self.before_nodes()
         kc, ia = self._kc, self.ia
         self._kc = -1
-        v_trial = f.v[: ia + 1, kc:].copy()
         out = self._out
-        fn, ft = self.shaft_normal, self.shaft_friction
         s = self.pile.surface()
         vp = float(s.layer_v[0, 2])  # the base moves with the lowest level
         if s.layer_z.shape[0] == 1:
@@ -462,31 +497,27 @@ class AxisymmetricPileContact:
             vs = np.interp(f.grid.z, s.layer_z, s.layer_v[:, 2])
         t_edge = -1.0
         if self.base == "edge" and kc + 1 <= f.grid.nz:
-            t_edge = min(max((s.z_apex - f.grid.z[kc]) / f.grid.hz[kc], 0.0), 1.0)
-        project_pile_rz(
-            ia, kc, t_edge, f.nmass, f.mass, f.v, f.fix, f.mass_tiny, vp, vs, self.mu, self.mu_base,
-            RIM_OPTIONS.index(self.rim), dt,
-            fn, ft, out,
+            t_edge = min(max((s.z_apex - self._z_nodes[kc]) / f.hz[kc], 0.0), 1.0)
+        w = self._work
+        worst, stray, fsum = contact_step_rz(
+            ia, kc, t_edge, f.hr, f.hz, f.rc, f.Vs, f.mass, f.stress, f.q, f.hg, f.nmass, f.v, f.fix, f.mass_tiny,
+            f.gravity, vp, vs, self.mu, self.mu_base, self._rim_code, dt, self._v_old, self._v_trial,
+            self.shaft_normal, self.shaft_friction, out, w,
         )  # fmt: skip
-        excess = np.abs(ft) - self.mu * fn
-        if fn.any():
-            worst = float((excess / np.maximum(fn, 1e-300))[fn > 0].max())
+        if worst > -math.inf:
             self.worst_friction_excess = max(self.worst_friction_excess, worst)
             if worst > 1e-9:
                 raise RuntimeError(f"shaft friction exceeds μ × normal force by {worst:.3g} (relative)")
-        elif np.any(ft != 0.0):
+        elif stray:
             raise RuntimeError("shaft friction without a normal force")
         two_pi = 2.0 * math.pi
-        self.base_force[:] = two_pi * out[0], two_pi * out[1]
-        self.shaft_force[:] = two_pi * float(fn.sum()), two_pi * out[3]
+        self.base_force[0] = two_pi * out[0]
+        self.base_force[1] = two_pi * out[1]
+        self.shaft_force[0] = two_pi * fsum
+        self.shaft_force[1] = two_pi * out[3]
         self.contact_nodes = int(out[5])
-        self.pile.load = self._level_load(s, kc, v_trial, dt)
+        self.pile.load = self._level_load(s, kc, self._v_trial[:, kc:], dt)
         self._pile_motion += vp * dt
-        w = self._work
-        contact_work_rz(
-            ia, kc, f.hr, f.hz, f.rc, f.Vs, f.mass, f.stress, f.q, f.hg, f.nmass, f.mass_tiny, f.gravity, dt,
-            self._v_old, v_trial, f.v, w,
-        )  # fmt: skip
         e = f.energy
         e["internal"] += w[0]
         e["viscous"] += w[1]

@@ -108,24 +108,65 @@ def node_force_rz(i, k, gr_, gz_, nr_, Vs, mass, stress, q, hg):
     return (fr, fz), (pr, pz), (hr_, hz_)
 
 
+#: per-cell force factors of :func:`cell_force_factors_rz` (the last axis of its output)
+FORCE_FACTORS_RZ = 10
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def cell_force_factors_rz(ci, ck, gr_, gz_, nr_, Vs, mass, stress, q, hg, out):
+    """The factors of cell (ci, ck)'s nodal forces that do not depend on the corner, into ``out`` (10): with
+    the corner's signs ξ, η the forces of :func:`node_force_rz` are f_σ = −(ξ f0 + η f1 + f2, ξ f3 + η f4),
+    f_q = (ξ f5 + f6, η f7), f_hg = −ξη (f8, f9)."""
+    vs = Vs[ci, ck]
+    gr = gr_[ci]
+    gz = gz_[ck]
+    n = nr_[ci]
+    srz = stress[ci, ck, 4]
+    pq = vs * q[ci, ck]
+    m = mass[ci, ck]
+    out[0] = vs * (stress[ci, ck, 0] * gr)
+    out[1] = vs * (srz * gz)
+    out[2] = vs * (stress[ci, ck, 1] * n)
+    out[3] = vs * (srz * gr)
+    out[4] = vs * (stress[ci, ck, 2] * gz)
+    out[5] = pq * gr
+    out[6] = pq * n
+    out[7] = pq * gz
+    out[8] = m * hg[ci, ck, 0]
+    out[9] = m * hg[ci, ck, 1]
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
 def advance_nodes_rz(
-    hr, hz, rc, Vs, mass, stress, q, hg, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt, mtiny
-):
+    hr, hz, rc, Vs, mass, stress, q, hg, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt, mtiny,
+    work=None,
+):  # fmt: skip
     """v ← v + Δt f/m with stress, viscous, hourglass, gravity and external forces (per radian); then the
     boundary conditions: fixed components take the prescribed velocity ``vfix`` and their reaction
     m (v − v_free)/Δt is written to ``reaction`` (N/rad). ``damping`` α (1/s) adds the mass-proportional
     force −α m v̄ (dynamic relaxation, for quasi-static checks; 0 in a physical run), integrated
     implicitly (v̄ the mean velocity over the step) and counted as viscous dissipation.
 
+    The forces are those of :func:`node_force_rz`, gathered in two passes: each cell's corner-independent
+    factors (:func:`cell_force_factors_rz`) once, into ``work`` ((nr, nz, :data:`FORCE_FACTORS_RZ`), scratch;
+    allocated when not given), then every node sums its ≤ 4 cells with the corners' signs (a node visits
+    each of its cells, so the products are formed once instead of four times; equal to round-off).
+
     Energies as in :func:`geocel.euler.lagrange.advance_nodes` (the work of each force with the mean
     velocity v̄ = (v^{n−½} + v^{n+½})/2): returns (kinetic energy at n, work of the stresses, viscous
     dissipation, hourglass dissipation, work of gravity, work of the external forces and reactions), J/rad."""
     ncr, ncz = Vs.shape
-    acc = np.zeros((ncr + 1, 6))
+    if work is None:
+        cf = np.empty((ncr, ncz, FORCE_FACTORS_RZ))
+    else:
+        cf = work
     gr_ = 0.5 / hr
     gz_ = 0.5 / hz
     nr_ = 0.25 / rc
+    for ci in prange(ncr):
+        for ck in range(ncz):
+            cell_force_factors_rz(ci, ck, gr_, gz_, nr_, Vs, mass, stress, q, hg, cf[ci, ck])
+    acc = np.zeros((ncr + 1, 6))
     a_half = 0.5 * damping * dt
     for i in prange(ncr + 1):
         ke = 0.0
@@ -142,10 +183,27 @@ def advance_nodes_rz(
                 reaction[i, k, 0] = 0.0
                 reaction[i, k, 1] = 0.0
                 continue
-            fs, fq, fh = node_force_rz(i, k, gr_, gz_, nr_, Vs, mass, stress, q, hg)
+            fs0 = 0.0
+            fs1 = 0.0
+            fq0 = 0.0
+            fq1 = 0.0
+            fh0 = 0.0
+            fh1 = 0.0
+            for ci in range(max(i - 1, 0), min(i + 1, ncr)):
+                xi = 1.0 if ci < i else -1.0
+                for ck in range(max(k - 1, 0), min(k + 1, ncz)):
+                    eta = 1.0 if ck < k else -1.0
+                    c = cf[ci, ck]
+                    fs0 -= xi * c[0] + eta * c[1] + c[2]
+                    fs1 -= xi * c[3] + eta * c[4]
+                    fq0 += xi * c[5] + c[6]
+                    fq1 += eta * c[7]
+                    h = xi * eta
+                    fh0 -= h * c[8]
+                    fh1 -= h * c[9]
             fgz = -m * gravity
-            fr = fs[0] + fq[0] + fh[0] + fext[i, k, 0]
-            fz = fs[1] + fq[1] + fh[1] + fgz + fext[i, k, 1]
+            fr = fs0 + fq0 + fh0 + fext[i, k, 0]
+            fz = fs1 + fq1 + fh1 + fgz + fext[i, k, 1]
             c = dt / m
             o0 = v[i, k, 0]
             o1 = v[i, k, 1]
@@ -166,10 +224,10 @@ def advance_nodes_rz(
             m0 = 0.5 * (o0 + v0)
             m1 = 0.5 * (o1 + v1)
             ke += 0.5 * m * (m0 * m0 + m1 * m1)
-            wi -= (fs[0] * m0 + fs[1] * m1) * dt
-            wv -= (fq[0] * m0 + fq[1] * m1) * dt
+            wi -= (fs0 * m0 + fs1 * m1) * dt
+            wv -= (fq0 * m0 + fq1 * m1) * dt
             wv += damping * m * (m0 * m0 + m1 * m1) * dt
-            wh -= (fh[0] * m0 + fh[1] * m1) * dt
+            wh -= (fh0 * m0 + fh1 * m1) * dt
             wg += fgz * m1 * dt
             wx += ((fext[i, k, 0] + r0) * m0 + (fext[i, k, 1] + r1) * m1) * dt
         acc[i, 0] = ke
@@ -229,6 +287,7 @@ def update_cells_rz(
     mf,
     cf,
     max_sub,
+    nchunk=64,
 ):
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (module
     docstring: D = (D_rr, D_θθ, D_zz, 0, D_rz, 0)Δt, W_13 Δt; the model given by ``tag``; in
@@ -236,7 +295,9 @@ def update_cells_rz(
     3D), the bulk-viscosity
     pressure q and the hourglass resistance for the next nodal pass (``hg``: per unit cell mass, so a cell
     the remap has nearly emptied pushes proportionally less). Cells below :data:`PHI_MIN` are set
-    stress-free. ``state[..., hoff:hoff + 2]`` holds the hourglass generalised stresses (Pa).
+    stress-free. ``state[..., hoff:hoff + 2]`` holds the hourglass generalised stresses (Pa). ``nchunk``: the
+    rows are dealt round-robin to that many chunks of work (the field gives one per thread: each thread
+    then takes every nchunk-th row, which balances them to within a row).
 
     Returns (stable Δt of the cells, flat index of the cell governing it), with the viscosity correction of
     the explicit scheme as in 3D and L_e = :func:`characteristic_length_rz`."""
@@ -244,7 +305,10 @@ def update_cells_rz(
     n = ncr * ncz
     s2 = stress.reshape((n, 6))
     st2 = state.reshape((n, state.shape[2]))
-    nchunk = min(ncr, 64)
+    # rows dealt round-robin to the chunks (the threads get contiguous blocks of chunks): the costly cells,
+    # next to the pile where the soil model takes many substeps, are near the axis, so contiguous blocks of
+    # rows would leave one thread with most of them
+    nchunk = max(1, min(ncr, nchunk))
     dts = np.full(nchunk, np.inf)
     args = np.zeros(nchunk, dtype=np.int64)
     for ch in prange(nchunk):
@@ -252,7 +316,7 @@ def update_cells_rz(
         wbuf = np.empty(3)
         best = np.inf
         best_c = -1
-        for i in range(ch * ncr // nchunk, (ch + 1) * ncr // nchunk):
+        for i in range(ch, ncr, nchunk):
             r_c = rc[i]
             h_r = hr[i]
             for k in range(ncz):
@@ -311,7 +375,8 @@ def update_cells_rz(
     dt_min = np.inf
     arg = -1
     for ch in range(nchunk):
-        if dts[ch] < dt_min:
+        # ties go to the lowest cell index, whatever the chunking
+        if dts[ch] < dt_min or (dts[ch] == dt_min and args[ch] < arg):
             dt_min = dts[ch]
             arg = args[ch]
     return dt_min, arg

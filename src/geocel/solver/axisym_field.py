@@ -13,13 +13,15 @@ Node arrays are (nr+1, nz+1[, 2]) with components (r, z); cell arrays (nr, nz[, 
 
 from __future__ import annotations
 
-import time
+import math
 from dataclasses import dataclass, field
+from time import perf_counter
 
 import numpy as np
-from numba import njit, prange
+from numba import get_num_threads, njit
 
 from ..euler.axisym import (
+    FORCE_FACTORS_RZ,
     HOURGLASS_STATE_RZ,
     advance_nodes_rz,
     characteristic_length_rz,
@@ -43,21 +45,41 @@ from .field import (
 )
 
 
-@njit(parallel=True, **KERNEL_OPTIONS)
+@njit(**KERNEL_OPTIONS)
 def _accumulate_rz(rr, rz, v, dt, u):
-    """u ← u + v Δt at every node; returns the largest |u_d|/spacing (the pending remap's Courant number)."""
+    """u ← u + v Δt at every node; returns the largest |u_d|/spacing (the pending remap's Courant number).
+    Serial: a few flops per node, less than what a parallel region costs to start on busy cores."""
     n1, n2, _ = v.shape
-    cmax = np.zeros(n1)
-    for i in prange(n1):
-        c = 0.0
+    c = 0.0
+    for i in range(n1):
         for k in range(n2):
             a = u[i, k, 0] + dt * v[i, k, 0]
             b = u[i, k, 1] + dt * v[i, k, 1]
             u[i, k, 0] = a
             u[i, k, 1] = b
             c = max(c, abs(a) * rr[i], abs(b) * rz[k])
-        cmax[i] = c
-    return cmax.max()
+    return c
+
+
+@njit(**KERNEL_OPTIONS)
+def _kinetic_energy_rz(nmass, v):
+    """½ Σ m |v|² over the nodes (J/rad)."""
+    n1, n2 = nmass.shape
+    s = 0.0
+    for i in range(n1):
+        for k in range(n2):
+            s += nmass[i, k] * (v[i, k, 0] * v[i, k, 0] + v[i, k, 1] * v[i, k, 1])
+    return 0.5 * s
+
+
+@njit(**KERNEL_OPTIONS)
+def _void_ratio_rz(Vs, volume, mass, state, grain_density):
+    """e = ρ_s V_s/m − 1 in every soil cell (after a remap, which carries mass and soil volume, not e)."""
+    n1, n2 = Vs.shape
+    for i in range(n1):
+        for k in range(n2):
+            if Vs[i, k] > PHI_MIN * volume[i, k] and mass[i, k] > 0.0:
+                state[i, k, 0] = grain_density * Vs[i, k] / mass[i, k] - 1.0
 
 
 @dataclass
@@ -102,6 +124,7 @@ class AxisymmetricField(FieldBalances):
         self.external_force = np.zeros(nshape + (2,))
         self.reaction = np.zeros(nshape + (2,))
         self.u_remap = np.zeros(nshape + (2,))
+        self._force_factors = np.empty(shape + (FORCE_FACTORS_RZ,))  # scratch of the nodal pass
         self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / node_spacing(g.hz))
         self.time = 0.0
         self.step_count = 0
@@ -208,39 +231,43 @@ class AxisymmetricField(FieldBalances):
         ``remap_courant`` of a cell (every step with 0, never with ``np.inf``)."""
         st = self.settings
         dt = self.dt if dt is None else dt
-        tm = self.timers
-        t0 = time.perf_counter()
-        if self.contact is not None:
-            self.contact.before_nodes()
+        contact = self.contact
+        t0 = perf_counter()
+        if contact is not None:
+            contact.before_nodes()
         ke, dEi, dEv, dEh, wg, wx = advance_nodes_rz(
             self.hr, self.hz, self.rc, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass, self.v,
             self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
-            self.mass_tiny,
+            self.mass_tiny, self._force_factors,
         )  # fmt: skip
-        if self.contact is not None:
-            self.contact.apply(dt)
-        t1 = time.perf_counter()
+        if contact is not None:
+            contact.apply(dt)
+        t1 = perf_counter()
         dtc, arg = update_cells_rz(
             self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
             self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength, self._max_substep,
+            get_num_threads(),
         )  # fmt: skip
-        if not (np.isfinite(ke) and np.isfinite(dEi)):
+        if not (math.isfinite(ke) and math.isfinite(dEi)):
             raise InstabilityError(
                 f"axisymmetric step {self.step_count}: non-finite energy (Δt = {dt:.3g} s)",
                 {"step": self.step_count, "time": self.time, "dt": dt, "quantity": "kinetic_energy"},
             )
-        t2 = time.perf_counter()
-        if np.isfinite(st.remap_courant):
-            deferred = st.remap_courant > 0.0
+        t2 = perf_counter()
+        rc_ = st.remap_courant
+        if rc_ < math.inf:
+            deferred = rc_ > 0.0
             if not deferred:
                 self.u_remap[...] = 0.0
-            courant = _accumulate_rz(*self._node_reciprocal, self.v, dt, self.u_remap)
-            if not deferred or courant >= st.remap_courant:
-                if self.contact is not None:
-                    self.contact.before_remap(self.u_remap)
+            courant = _accumulate_rz(
+                self._node_reciprocal[0], self._node_reciprocal[1], self.v, dt, self.u_remap
+            )
+            if not deferred or courant >= rc_:
+                if contact is not None:
+                    contact.before_remap(self.u_remap)
                 self.remap(self.u_remap)
-        t3 = time.perf_counter()
+        t3 = perf_counter()
         e = self.energy
         e["kinetic"] = ke
         e["internal"] += dEi
@@ -252,9 +279,10 @@ class AxisymmetricField(FieldBalances):
         self.step_count += 1
         self.dt_critical = dtc
         self.governing_cell = arg
-        if np.isfinite(dtc):
+        if dtc < math.inf:
             self.dt = min(st.safety_factor * dtc, st.dt_growth * dt)
-        t4 = time.perf_counter()
+        t4 = perf_counter()
+        tm = self.timers
         tm["nodes"] += t1 - t0
         tm["cells"] += t2 - t1
         tm["remap"] += t3 - t2
@@ -262,18 +290,15 @@ class AxisymmetricField(FieldBalances):
 
     def remap(self, displacement: np.ndarray) -> None:
         """Remap with the mesh motion ``displacement`` (m, then reset); e is recomputed from the density."""
-        ke_before = float(0.5 * (self.nmass * (self.v**2).sum(axis=-1)).sum())
+        ke_before = _kinetic_energy_rz(self.nmass, self.v)
         lost, capped = remap_rz(
             self.r, self.hz, self.active, self.v, 1.0, self.Vs, self.Vcur, self.mass, self.stress,
             self.state[..., 1:], self.nmass, self.fbar, self.remap_count, self.mass_tiny,
             self.grain_density / (1.0 + E_MAX), self.grain_density / (1.0 + E_MIN), displacement,
         )  # fmt: skip
         displacement[...] = 0.0
-        soil = (self.Vs > PHI_MIN * self.volume) & (self.mass > 0.0)
-        self.state[..., 0][soil] = self.grain_density * self.Vs[soil] / self.mass[soil] - 1.0
-        self.energy["remap_kinetic_loss"] += ke_before - float(
-            0.5 * (self.nmass * (self.v**2).sum(axis=-1)).sum()
-        )
+        _void_ratio_rz(self.Vs, self.volume, self.mass, self.state, self.grain_density)
+        self.energy["remap_kinetic_loss"] += ke_before - _kinetic_energy_rz(self.nmass, self.v)
         self.lost_mass += lost
         self.capped_volume += capped
         self.remap_count += 1
