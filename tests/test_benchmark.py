@@ -66,3 +66,57 @@ def test_an_interrupted_variant_continues_from_its_checkpoint(tmp_path, monkeypa
     assert s["tip_depth"] == pytest.approx(full["tip_depth"], rel=1e-12)
     again = run_variant(args[0], args[1], str(tmp_path), *args[2:])
     assert again["skipped"]
+
+
+def test_the_axisymmetric_benchmark_writes_its_tables_and_leaves_the_physics_alone(tmp_path):
+    """``geocel benchmark deeks-white --symmetry axisymmetric`` (one variant, rigid S = 1, 6 cm at the demo r–z
+    resolution): tables, figure and an r–z report; q_b(z) the same numbers as a direct Simulation of the preset's
+    r–z scenario; a second invocation reuses the variant; the 3D benchmark refuses the r–z directory."""
+    from dask.distributed import LocalCluster
+    from typer.testing import CliRunner
+
+    from geocel.benchmark.deeks_white import plan_benchmark
+    from geocel.benchmark.presets import preset_dict
+    from geocel.cli import app
+    from geocel.config.fingerprint import ScenarioMismatchError
+    from geocel.config.scenario import scenario_from_dict
+    from geocel.io.history import read_history
+    from geocel.solver.quasi_static import inertia_verdict
+    from geocel.solver.simulation import Simulation
+
+    pen, v, out = 0.06, 2.0, tmp_path / "bench"
+    args = ["benchmark", "deeks-white", "--symmetry", "axisymmetric", "--variants", "rigid:1",
+            "--penetration", str(pen), "--velocity", str(v), "--out", str(out)]  # fmt: skip
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as c:
+        res = CliRunner().invoke(app, [*args, "--scheduler", c.scheduler_address])
+        assert res.exit_code == 0, res.output
+        again = CliRunner().invoke(app, [*args, "--scheduler", c.scheduler_address])
+    assert again.exit_code == 0 and "rigid-S1: reused (finished before)" in again.output
+    for f in ("results.csv", "results.md", "report.md", "curves.png"):
+        assert (out / f).stat().st_size > 0
+    table = pd.read_csv(out / "results.csv")
+    (row,) = table.to_dict("records")
+    assert row["variant"] == "rigid-S1" and row["status"] == "finished"
+    assert row["inertia_check"] == inertia_verdict(row["max_inertia_ratio"], "axisymmetric")
+    report = (out / "report.md").read_text()
+    assert (
+        "axisymmetric (r–z) model" in report
+        and "resolution `demo` (0.1 m cells at the pile, 3 per pile" in report
+    )
+    assert "×4" not in report and "quarter" not in report and "multiplied by 4" not in report
+    assert "one grid cell of tip depth (0.1 m)" in report and "≤ 0.02% valid" in report
+
+    d = preset_dict("deeks-white", symmetry="axisymmetric", resolution="demo", penetration=pen, velocity=v,
+                    pile="rigid", scaling=1)  # fmt: skip
+    direct = Simulation(
+        scenario_from_dict(d), out=tmp_path / "direct", progress=False, write_fields=False
+    ).run()
+    bench = read_history(out / "rigid-S1" / "history.csv")
+    ref = read_history(tmp_path / "direct" / "history.csv")
+    assert direct["steps"] == row["steps"] and len(bench) == len(ref) >= 4
+    np.testing.assert_array_equal(bench["qb"].to_numpy(), ref["qb"].to_numpy())
+    np.testing.assert_array_equal(bench["tip_depth"].to_numpy(), ref["tip_depth"].to_numpy())
+    assert np.nanmax(ref["qb"]) > 0.0
+
+    with pytest.raises(ScenarioMismatchError, match=r"\[domain\]\.symmetry"):
+        plan_benchmark(out, "demo", pen, v, [("rigid", 1.0)])

@@ -401,6 +401,8 @@ def test_the_energy_panel_shows_every_checked_value_and_marks_the_start(tmp_path
         (["benchmark", "deeks-white", "--reference", "nothere.csv"], "--reference = 'nothere.csv': file not found"),
         (["benchmark", "deeks-white", "--reference", "{bad}"], "no column depth_m, qb_MPa (columns: depth, q"),
         (["benchmark", "nope"], "unknown benchmark 'nope'"),
+        (["benchmark", "deeks-white", "--symmetry", "half"], "--symmetry = 'half': the benchmark runs the 3D quarter"),
+        (["benchmark", "deeks-white", "--workers", "0"], "--workers = 0: must be ≥ 1"),
         (["element-test", "triaxial", "--e0", "-0.6"], "--e0 = -0.6: must be a positive void ratio"),
         (["element-test", "triaxial", "--steps", "0"], "--steps = 0: must be a positive number"),
         (["element-test", "path", "--stress", "1,2"], "--stress = '1,2': must be 6 comma-separated numbers"),
@@ -441,7 +443,9 @@ def test_user_errors_are_one_line_and_exit_2_before_any_computing(tmp_path, monk
 VARIANT = ("rigid", 100.0, "demo", 0.06, 0.5)
 
 
-def _tiny_variant_dict(kind, S, resolution, penetration, velocity, velocity_factor=1.0) -> dict:
+def _tiny_variant_dict(
+    kind, S, resolution, penetration, velocity, velocity_factor=1.0, symmetry="quarter"
+) -> dict:
     """The benchmark's variant scenario on the tiny test domain (half the preset's cell size at the pile):
     the reuse logic is the same, the run takes seconds instead of a minute."""
     from geocel.benchmark.deeks_white import variant_name

@@ -338,7 +338,16 @@ _AXISYMMETRIC_HEADER = """\
 @app.command()
 def benchmark(
     name: Annotated[str, typer.Argument(help="benchmark (deeks-white)")],
-    resolution: Annotated[str, typer.Option(help="demo | coarse | paper")] = "demo",
+    resolution: Annotated[
+        str,
+        typer.Option(help="demo | coarse | paper (r–z: 3, 6, 12 cells per pile radius)"),
+    ] = "demo",
+    symmetry: Annotated[
+        str,
+        typer.Option(
+            help="quarter (the 3D quarter model) | axisymmetric (the r–z model, its own inertia limits)"
+        ),
+    ] = "quarter",
     penetration: Annotated[float, typer.Option(help="penetration, m")] = 3.0,
     velocity: Annotated[float, typer.Option(help="jacking velocity, m/s")] = 0.02,
     scheduler: Annotated[
@@ -364,23 +373,37 @@ def benchmark(
             "--resolution) is moved to <variant>.replaced and run again, instead of stopping"
         ),
     ] = False,
+    workers: Annotated[
+        int | None,
+        typer.Option(
+            help="local cluster: worker processes, one thread each (default: one per variant, ≤ CPUs)"
+        ),
+    ] = None,
 ) -> None:
-    """The 9 variants (conventional/coupled/rigid × S = 1, 10, 100) on dask.distributed: figure, tables and
-    report in OUT. Finished variants of the same scenario are reused, interrupted ones resumed from their
+    """The 9 variants (conventional/coupled/rigid × S = 1, 10, 100) on dask.distributed, in the 3D quarter model
+    or (--symmetry axisymmetric) the r–z model: figure, tables and report in OUT. Finished variants of the same scenario are reused, interrupted ones resumed from their
     checkpoints; every option is checked before the cluster starts."""
     from .benchmark.deeks_white import parse_variants, plan_benchmark, run_benchmark
 
     with user_errors():
         if name != "deeks-white":
             raise ValueError(f"unknown benchmark {name!r} (available: deeks-white)")
+        if workers is not None and workers < 1:
+            raise ValueError(f"--workers = {workers}: must be ≥ 1")
+        if workers is not None and scheduler is not None:
+            raise ValueError(
+                "--workers: only for the local cluster; with --scheduler the cluster's workers run"
+            )
         sel = parse_variants(variants) if variants is not None else None
-        plan = plan_benchmark(out, resolution, penetration, velocity, sel, reference, time_scaling, rerun)
+        plan = plan_benchmark(
+            out, resolution, penetration, velocity, sel, reference, time_scaling, rerun, symmetry
+        )
     for variant, state in plan.states.items():
         if state in ("finished", "resume", "replace"):
             what = {"finished": "reused (finished before)", "resume": "resumed from its checkpoint",
                     "replace": "another scenario: set aside and run again"}[state]  # fmt: skip
             console.print(f"  {variant}: {what}")
-    res = run_benchmark(out, scheduler=scheduler, echo=console.print, plan=plan)
+    res = run_benchmark(out, scheduler=scheduler, workers=workers, echo=console.print, plan=plan)
     console.print(res["table"].to_markdown(index=False, floatfmt=".4g"))
     for variant, why in res.get("unreadable", {}).items():
         console.print(f"[yellow]unreadable:[/yellow] {variant}: {escape(why)}", soft_wrap=True)

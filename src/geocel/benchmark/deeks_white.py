@@ -1,5 +1,7 @@
 """The Deeks & White (2006) centrifuge benchmark: the 9 variants (conventional / coupled / rigid × S = 1, 10,
-100) as independent tasks on dask.distributed, then one figure, a table (Markdown + CSV) and a report.
+100) as independent tasks on dask.distributed, then one figure, a table (Markdown + CSV) and a report. The
+model is the 3D quarter model (``symmetry="quarter"``) or the axisymmetric r–z model (``"axisymmetric"``: the
+grids of :data:`~geocel.benchmark.presets.AXISYMMETRIC_RESOLUTIONS`, the r–z inertia limits).
 
 Each variant is a normal run directory under ``out/<variant>``. Before any computing (and before the dask
 cluster starts) every option is checked and every existing variant directory is compared with the requested
@@ -26,9 +28,9 @@ import pandas as pd
 from ..batch import dask_client, run_in_directory, run_state, run_tasks
 from ..config.scenario import Scenario
 from ..io.history import read_history
-from ..solver.quasi_static import inertia_verdict
+from ..solver.quasi_static import inertia_limits, inertia_verdict
 from .plots import cell_average, plot_curves, value_at_depth, verdict
-from .presets import RESOLUTIONS, preset_dict, scenario_from_options
+from .presets import AXISYMMETRIC_RESOLUTIONS, RESOLUTIONS, preset_dict, scenario_from_options
 
 KINDS = {"solid": "conventional", "coupled": "coupled", "rigid": "rigid"}
 #: names accepted for a pile kind in ``--variants`` (the table's own name of the solid pile included)
@@ -36,6 +38,8 @@ KIND_NAMES = {"solid": "solid", "conventional": "solid", "coupled": "coupled", "
 SCALINGS = (1, 10, 100)
 #: the range of the mass-gravity scaling factor S ([scaling] mass_gravity)
 S_RANGE = (1.0, 1.0e4)
+#: the models the benchmark runs: the 3D quarter model (the paper's) and the axisymmetric r–z model
+BENCHMARK_SYMMETRIES = ("quarter", "axisymmetric")
 _HINT = "use another --out, or --rerun to set it aside and run the variant again"
 
 
@@ -97,11 +101,25 @@ def variant_name(kind: str, S: float, velocity_factor: float = 1.0) -> str:
     return name if velocity_factor == 1.0 else f"{name}-v{velocity_factor:g}"
 
 
+def resolutions_of(symmetry: str = "quarter") -> dict[str, dict]:
+    """The benchmark's resolutions (name → ``[domain]`` keys) of a model ``symmetry``."""
+    return AXISYMMETRIC_RESOLUTIONS if symmetry == "axisymmetric" else RESOLUTIONS
+
+
 def variant_dict(
-    kind: str, S: float, resolution: str, penetration: float, velocity: float, velocity_factor: float = 1.0
+    kind: str,
+    S: float,
+    resolution: str,
+    penetration: float,
+    velocity: float,
+    velocity_factor: float = 1.0,
+    symmetry: str = "quarter",
 ) -> dict:
-    """The scenario (as a dict) of one variant: the deeks-white preset with the pile kind and scaling."""
-    d = preset_dict("deeks-white", resolution=resolution, penetration=penetration, velocity=velocity)
+    """The scenario (as a dict) of one variant: the deeks-white preset (of ``symmetry``) with the pile kind and
+    scaling."""
+    d = preset_dict(
+        "deeks-white", resolution=resolution, penetration=penetration, velocity=velocity, symmetry=symmetry
+    )
     d["name"] = variant_name(kind, S, velocity_factor)
     d["pile"]["type"] = kind
     d["scaling"]["mass_gravity"] = float(S)
@@ -126,13 +144,16 @@ def run_variant(
     velocity_factor: float = 1.0,
     threads: int | None = None,
     rerun: bool = False,
+    symmetry: str = "quarter",
 ) -> dict:
     """Run, resume or reuse one variant (:func:`geocel.batch.run_in_directory`); returns its summary (worker
     side), with ``skipped`` true when a finished run of the same scenario was reused."""
     from ..config.scenario import scenario_from_dict
 
     name = variant_name(kind, S, velocity_factor)
-    sc = scenario_from_dict(variant_dict(kind, S, resolution, penetration, velocity, velocity_factor))
+    sc = scenario_from_dict(
+        variant_dict(kind, S, resolution, penetration, velocity, velocity_factor, symmetry=symmetry)
+    )
     return {**run_in_directory(Path(out_root) / name, sc, threads, rerun), "variant": name}
 
 
@@ -149,6 +170,7 @@ class BenchmarkPlan:
     reference: pd.DataFrame | None = None
     reference_name: str | None = None
     rerun: bool = False
+    symmetry: str = "quarter"
 
 
 def plan_benchmark(
@@ -160,11 +182,18 @@ def plan_benchmark(
     reference: str | Path | None = None,
     time_scaling: bool = False,
     rerun: bool = False,
+    symmetry: str = "quarter",
 ) -> BenchmarkPlan:
     """Check every option and every existing variant directory before anything is computed; raises
     ``ValueError`` with one line naming the option, the value and what is allowed."""
-    if resolution not in RESOLUTIONS:
-        raise ValueError(f"--resolution = {resolution!r}: unknown (allowed: {', '.join(RESOLUTIONS)})")
+    if symmetry not in BENCHMARK_SYMMETRIES:
+        raise ValueError(
+            f"--symmetry = {symmetry!r}: the benchmark runs the 3D quarter model or the r–z model (allowed: "
+            f"{', '.join(BENCHMARK_SYMMETRIES)})"
+        )
+    resolutions = resolutions_of(symmetry)
+    if resolution not in resolutions:
+        raise ValueError(f"--resolution = {resolution!r}: unknown (allowed: {', '.join(resolutions)})")
     for option, value in (("--penetration", penetration), ("--velocity", velocity)):
         if not math.isfinite(value):
             raise ValueError(f"{option} = {value}: not a finite number")
@@ -190,12 +219,12 @@ def plan_benchmark(
     for k, S, vf in todo:
         name = variant_name(k, S, vf)
         sc = scenario_from_options(
-            variant_dict(k, S, resolution, penetration, velocity, vf), f"variant {name}: "
+            variant_dict(k, S, resolution, penetration, velocity, vf, symmetry=symmetry), f"variant {name}: "
         )
         states[name] = variant_state(out / name, sc, rerun)
     return BenchmarkPlan(
         out, resolution, penetration, velocity, todo, states, ref,
-        f"measured ({Path(reference).name})" if reference is not None else None, rerun,
+        f"measured ({Path(reference).name})" if reference is not None else None, rerun, symmetry,
     )  # fmt: skip
 
 
@@ -240,13 +269,14 @@ def run_benchmark(
     echo=print,
     rerun: bool = False,
     plan: BenchmarkPlan | None = None,
+    symmetry: str = "quarter",
 ) -> dict:
     """Run the variants on dask.distributed and write ``results.csv``, ``results.md``, ``curves.png`` and
     ``report.md`` into ``out``. Returns {"table": DataFrame, "failed": {variant: error}}. All options are
     checked first (:func:`plan_benchmark`, or the ``plan`` made before)."""
     if plan is None:
         plan = plan_benchmark(
-            out, resolution, penetration, velocity, variants, reference, time_scaling, rerun
+            out, resolution, penetration, velocity, variants, reference, time_scaling, rerun, symmetry
         )
     out, resolution, penetration, velocity = plan.out, plan.resolution, plan.penetration, plan.velocity
     out.mkdir(parents=True, exist_ok=True)
@@ -270,7 +300,7 @@ def run_benchmark(
         tasks = {
             variant_name(k, S, vf): (
                 run_variant,
-                (k, S, str(out), resolution, penetration, velocity, vf, threads, plan.rerun),
+                (k, S, str(out), resolution, penetration, velocity, vf, threads, plan.rerun, plan.symmetry),
             )
             for k, S, vf in todo
         }
@@ -279,17 +309,30 @@ def run_benchmark(
     wall = time.perf_counter() - t0
     return write_results(out, [variant_name(k, S, vf) for k, S, vf in todo], summaries, failed,
                          plan.reference if plan.reference is not None else None, wall, resolution, penetration,
-                         velocity, reference_name=plan.reference_name)  # fmt: skip
+                         velocity, reference_name=plan.reference_name, symmetry=plan.symmetry)  # fmt: skip
 
 
 def write_results(
-    out, names, summaries, failed, reference, wall, resolution, penetration, velocity, reference_name=None
+    out,
+    names,
+    summaries,
+    failed,
+    reference,
+    wall,
+    resolution,
+    penetration,
+    velocity,
+    reference_name=None,
+    symmetry: str = "quarter",
 ) -> dict:
     """Tables, figure and report from the run directories of the variants (``reference``: a measured curve,
-    as a CSV path or the table of :func:`read_reference`). A variant whose history cannot be read is left out
-    of the curves and the errors, and named in the report."""
+    as a CSV path or the table of :func:`read_reference`; ``symmetry``: the model's, for the cell width of the
+    depth average, the inertia limits and the report's text). A variant whose history cannot be read is left
+    out of the curves and the errors, and named in the report."""
     out = Path(out)
-    width = RESOLUTIONS[resolution]["fine_size"] if resolution in RESOLUTIONS else 0.0
+    rz = symmetry == "axisymmetric"
+    resolutions = resolutions_of(symmetry)
+    width = resolutions[resolution]["fine_size"] if resolution in resolutions else 0.0
     hist = {}
     unreadable: dict[str, str] = {}
     for n in names:
@@ -340,7 +383,7 @@ def write_results(
             "max_KE_IE": s["max_energy_ratio"],
             "quasi_static": verdict(s["max_energy_ratio"]),
             "max_inertia_ratio": s.get("max_inertia_ratio"),
-            "inertia_check": inertia_verdict(s.get("max_inertia_ratio")),
+            "inertia_check": inertia_verdict(s.get("max_inertia_ratio"), s.get("symmetry", symmetry)),
             "soil_mass_error": s["soil_mass_error"],
         }
         if ref is not None and h is not None:
@@ -365,17 +408,33 @@ def write_results(
     table.to_csv(out / "results.csv", index=False)
     (out / "results.md").write_text(table.to_markdown(index=False, floatfmt=".4g"))
     starts = {n: summaries[n].get("energy_check_from_penetration") for n in hist if n in summaries}
+    model = "axisymmetric (r–z), " if rz else ""
     fig = plot_curves(hist, out / "curves.png", reference=ref if reference is not None else None,
-                      title=f"Deeks & White (2006), {resolution} resolution, penetration {penetration:g} m, "
+                      title=f"Deeks & White (2006), {model}{resolution} resolution, penetration {penetration:g} m, "
                       f"v = {velocity:g} m/s", check_start=starts)  # fmt: skip
+    if rz:
+        radius = 0.5 * preset_dict("deeks-white")["pile"]["diameter"]
+        cells = f" ({width:g} m cells at the pile, {radius / width:.0f} per pile radius)" if width else ""
+        valid, caution = inertia_limits(symmetry)
+        heading = "# Deeks & White (2006) pile-jacking benchmark, axisymmetric (r–z) model"
+        setup = f"Symmetry `axisymmetric` (the r–z plane), resolution `{resolution}`{cells}"
+        forces = (
+            "q_b and q_s are those of the whole pile (the r–z forces per radian × 2π, no symmetry factor); the "
+            f"inertia check uses the r–z limits (ρ_S v²/q_b ≤ {valid:.2%} valid, ≤ {caution:.2%} caution: "
+            "docs/validation.md). "
+        )
+    else:
+        heading = "# Deeks & White (2006) pile-jacking benchmark"
+        setup = f"Resolution `{resolution}`"
+        forces = "Forces of the quarter model are multiplied by 4 (symmetry). "
     lines = [
-        "# Deeks & White (2006) pile-jacking benchmark",
+        heading,
         "",
-        f"Resolution `{resolution}`, penetration {penetration:g} m, jacking velocity {velocity:g} m/s; "
+        f"{setup}, penetration {penetration:g} m, jacking velocity {velocity:g} m/s; "
         f"machine: {_machine()}; wall time of the invocation that wrote this report {wall:.0f} s (variants "
         f"finished before are not run again: their own wall times are in the table). Errors (MPE) against {ref_name}; "
         "`MPE_qb_vs_own_S1_%`: the error of the scaling alone, against the same pile at S = 1.",
-        "Forces of the quarter model are multiplied by 4 (symmetry). q_b and q_s are averaged over one "
+        f"{forces}q_b and q_s are averaged over one "
         f"grid cell of tip depth ({width:g} m): the ripple of the tip crossing cell faces is removed.",
         "",
         f"![q_b, q_s and energy ratio against depth]({fig.name})",
