@@ -157,12 +157,12 @@ Besides the range of each key, a scenario must satisfy:
   `soil_depth` and does not exceed `length` (the head stays out of the soil); `[contact] friction` is
   required for an elastic soil.
 * `[domain] symmetry = "axisymmetric"` (the r–z plane; vertical loading of one pile on the axis: no
-  bending, lateral load or pile groups): the pile must be `type = "rigid"` with `tip = "flat"` (the solid
-  and coupled piles are not implemented in r–z yet), and its radius must lie on a node line of the grid, i.e.
+  bending, lateral load or pile groups): the pile (rigid, solid or coupled) must have `tip = "flat"`, and
+  its radius must lie on a node line of the grid, i.e.
   be a whole number of `fine_size` cells (`fine_size` = D/2/n; the message lists the values that work). The
   same `[domain]` keys grade the r–z grid (`cylinder_mask` is ignored: the domain is a cylinder of
   `radius`); `[contact] formulation` picks the base's band or edge contact of the r–z pile; the shaft and
-  the base take the friction μ; `[solver] pile_subcycling` has no effect (a rigid pile never limits Δt).
+  the base take the friction μ; `[solver] pile_subcycling` subcycles the solid pile as in 3D.
   Forces, q_b and q_s are those of the whole pile (no symmetry factor); the history's energies and masses
   are those of the whole domain.
 * `[reference] file` must exist (relative paths are resolved against the scenario file's folder).
