@@ -29,7 +29,7 @@ from geocel.benchmark.presets import preset_scenario
 from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
 from geocel.grid.axisym import AxisymmetricGrid
 from geocel.solver.axisym_field import AxisymmetricField
-from geocel.solver.field import SolverSettings
+from geocel.solver.simulation import solver_settings
 
 RADIUS = 0.3  # m, pile radius (D = 0.6 m)
 
@@ -57,12 +57,7 @@ def run(
         fine_radius=4.0 * RADIUS, fine_depth=min(penetration + 1.0, container_depth), growth=1.15,
         max_size=0.5,
     )  # fmt: skip
-    s = sc.solver
-    settings = SolverSettings(
-        safety_factor=s.safety_factor if safety_factor is None else safety_factor, hourglass=s.hourglass, hourglass_stiffness=s.hourglass_stiffness,
-        bulk_viscosity_linear=s.bulk_viscosity_linear, bulk_viscosity_quadratic=s.bulk_viscosity_quadratic,
-        gravity=s.gravity, remap_courant=s.remap_courant, soil_substep=s.soil_substep,
-    )  # fmt: skip
+    settings = solver_settings(sc, **({} if safety_factor is None else {"safety_factor": safety_factor}))
     f = AxisymmetricField(g, mat, scaling=scaling, settings=settings)
     f.fill_below(0.0)
     layers = [(layer.top, sc.soil.void_ratio_of(layer, mat)) for layer in sc.soil.layers]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 import pytest
 
@@ -19,13 +18,7 @@ from geocel.verification_axisym import elastic_punch_stiffness, tresca_punch_cur
 G = 9.81
 
 
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    """These grids are small: one thread is faster than two, and does not fight the other jobs for cores."""
-    n = numba.get_num_threads()
-    numba.set_num_threads(1)
-    yield
-    numba.set_num_threads(n)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def _cells(g, nstate=3):

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 import pytest
 
@@ -23,13 +22,7 @@ from geocel.solver.backend import build_backend
 from geocel.solver.field import SolverSettings
 from geocel.solver.simulation import Simulation
 
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    n = numba.get_num_threads()
-    numba.set_num_threads(1)
-    yield
-    numba.set_num_threads(n)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 # --- (a) the generalised contact with a rigid pile ---------------------------------------------------------

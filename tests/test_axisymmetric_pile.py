@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 import pytest
 
@@ -20,13 +19,7 @@ G = 9.81
 A = 0.3  # pile radius, m
 
 
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    """These grids are small: one thread is faster than two, and does not fight the other jobs for cores."""
-    n = numba.get_num_threads()
-    numba.set_num_threads(1)
-    yield
-    numba.set_num_threads(n)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def _soil(material, n=4, z_base=0.0, k0=0.5, e0=0.65, settings=None):

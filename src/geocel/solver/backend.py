@@ -37,22 +37,6 @@ __all__ = ["AxisymmetricBackend", "Backend", "CartesianBackend", "build_backend"
 STATE_ARRAYS = ("Vs", "Vcur", "mass", "stress", "state", "q", "hg", "v", "nmass", "modulus", "u_remap")
 
 
-def _settings(scenario: Scenario):
-    from .field import SolverSettings
-
-    s = scenario.solver
-    return SolverSettings(
-        safety_factor=s.safety_factor,
-        hourglass=s.hourglass,
-        hourglass_stiffness=s.hourglass_stiffness,
-        bulk_viscosity_linear=s.bulk_viscosity_linear,
-        bulk_viscosity_quadratic=s.bulk_viscosity_quadratic,
-        gravity=s.gravity,
-        remap_courant=s.remap_courant,
-        soil_substep=s.soil_substep,
-    )
-
-
 def _layers(scenario: Scenario) -> list[tuple[float, float]]:
     mat = scenario.soil.material
     return [(layer.top, scenario.soil.void_ratio_of(layer, mat)) for layer in scenario.soil.layers]
@@ -351,6 +335,7 @@ class AxisymmetricBackend(Backend):
         from ..contact.axisym import AxisymmetricPileContact, RigidPileRZ
         from ..grid.axisym import AxisymmetricGrid
         from .axisym_field import AxisymmetricField
+        from .simulation import solver_settings
 
         super().__init__(scenario)
         self._rigid_type = RigidPileRZ
@@ -366,7 +351,9 @@ class AxisymmetricBackend(Backend):
             max_size=d.max_size,
         )
         mat = scenario.soil.material
-        f = AxisymmetricField(grid, mat, scaling=scenario.scaling.mass_gravity, settings=_settings(scenario))
+        f = AxisymmetricField(
+            grid, mat, scaling=scenario.scaling.mass_gravity, settings=solver_settings(scenario)
+        )
         f.fill_below(0.0)
         f.geostatic(
             _layers(scenario), k0=scenario.initial.k0, intergranular=scenario.initial.intergranular_strain

@@ -81,22 +81,22 @@ def build_grid(scenario: Scenario) -> Grid:
     )
 
 
+def solver_settings(scenario: Scenario, **override) -> SolverSettings:
+    """The soil step's numerical settings of a scenario's ``[solver]`` table (3D and r–z alike); keyword
+    arguments override single settings."""
+    s = scenario.solver
+    keys = (
+        "safety_factor", "hourglass", "hourglass_stiffness", "bulk_viscosity_linear",
+        "bulk_viscosity_quadratic", "gravity", "remap_courant", "soil_substep",
+    )  # fmt: skip
+    return SolverSettings(**({k: getattr(s, k) for k in keys} | override))
+
+
 def build_field(scenario: Scenario, grid: Grid | None = None) -> SoilField:
     """3D soil field with the geostatic initial state of the scenario (MGS applied here, once)."""
     grid = build_grid(scenario) if grid is None else grid
-    s = scenario.solver
-    settings = SolverSettings(
-        safety_factor=s.safety_factor,
-        hourglass=s.hourglass,
-        hourglass_stiffness=s.hourglass_stiffness,
-        bulk_viscosity_linear=s.bulk_viscosity_linear,
-        bulk_viscosity_quadratic=s.bulk_viscosity_quadratic,
-        gravity=s.gravity,
-        remap_courant=s.remap_courant,
-        soil_substep=s.soil_substep,
-    )
     mat = scenario.soil.material
-    field = SoilField(grid, mat, scaling=scenario.scaling.mass_gravity, settings=settings)
+    field = SoilField(grid, mat, scaling=scenario.scaling.mass_gravity, settings=solver_settings(scenario))
     field.fill_below(0.0)
     if scenario.pile is not None:
         pile = build_pile_body(scenario)
