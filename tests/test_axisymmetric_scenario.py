@@ -20,8 +20,7 @@ from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
 from geocel.grid.axisym import AxisymmetricGrid
 from geocel.io.history import read_history
 from geocel.solver.axisym_field import AxisymmetricField
-from geocel.solver.backend import _settings
-from geocel.solver.simulation import Simulation
+from geocel.solver.simulation import Simulation, solver_settings
 
 E0 = 0.7
 GRAIN = 2650.0
@@ -99,7 +98,7 @@ def test_pile_run_writes_history_summary_and_2d_vtk_and_matches_the_standalone_d
     # the same pile jacked by the standalone r–z driver: the same q_b and q_s step for step (the whole pile's,
     # no symmetry factor)
     grid = AxisymmetricGrid.graded(1.0, 1.5, 0.2, 0.05, 0.4, 0.8, 1.3, 0.3)
-    f = AxisymmetricField(grid, sc.soil.material, scaling=10.0, settings=_settings(sc))
+    f = AxisymmetricField(grid, sc.soil.material, scaling=10.0, settings=solver_settings(sc))
     f.fill_below(0.0)
     f.geostatic([(0.0, E0)], k0=sc.initial.k0, intergranular=sc.initial.intergranular_strain)
     mu = sc.friction_coefficient()
