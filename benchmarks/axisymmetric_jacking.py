@@ -9,6 +9,7 @@ the node line r = a. Contact: :mod:`geocel.contact.axisym`.
 
     NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_jacking.py --cells-per-radius 6 [--penetration 1.2]
         [--scaling 10] [--velocity 0.5] [--base band|edge] [--rim base|split|shaft] [--profile]
+        [--soil hypoplastic|mohr-coulomb]
 
 Prints, at every 0.1 m of base depth, q_b (MPa) and q_s (kPa), each the mean over the steps within ±0.025 m
 of that depth (the base crosses a node row every a/n: the instantaneous values ripple with that period),
@@ -26,12 +27,17 @@ import time
 import numpy as np
 
 from geocel.benchmark.presets import preset_scenario
+from geocel.config.materials import MohrCoulomb
 from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
 from geocel.grid.axisym import AxisymmetricGrid
 from geocel.solver.axisym_field import AxisymmetricField
 from geocel.solver.simulation import solver_settings
 
 RADIUS = 0.3  # m, pile radius (D = 0.6 m)
+#: ``--soil mohr-coulomb``: a non-associated Mohr–Coulomb sand (e0 = 0.6)
+MOHR_COULOMB_SAND = MohrCoulomb(
+    youngs_modulus=30e6, poisson_ratio=0.3, friction_angle=36.0, dilatancy_angle=6.0
+)
 
 
 def run(
@@ -42,6 +48,7 @@ def run(
     rim: str = "base",
     base: str = "band",
     safety_factor: float | None = None,
+    soil: str = "hypoplastic",
     container_radius: float = 4.0,
     container_depth: float = 6.0,
     every: float = 0.1,
@@ -50,6 +57,11 @@ def run(
     profile: bool = False,
 ) -> dict:
     sc = preset_scenario("deeks-white")
+    if soil == "mohr-coulomb":  # a soil without rate or density effects, for checks of the contact and grid
+        layers = [layer.model_copy(update={"e0": 0.6, "relative_density": None}) for layer in sc.soil.layers]
+        sc = sc.model_copy(
+            update={"soil": sc.soil.model_copy(update={"material": MOHR_COULOMB_SAND, "layers": layers})}
+        )
     mat = sc.soil.material
     h = RADIUS / cells_per_radius
     g = AxisymmetricGrid.graded(
@@ -131,12 +143,16 @@ def main() -> None:
     ap.add_argument("--base", default="band", choices=("band", "edge"))
     ap.add_argument("--safety-factor", type=float, default=None, help="Δt = this × the stable step (0.9)")
     ap.add_argument("--profile", action="store_true", help="print where the wall time went")
+    ap.add_argument(
+        "--soil", default="hypoplastic", choices=("hypoplastic", "mohr-coulomb"),
+        help="the preset's sand, or a Mohr–Coulomb sand (E 30 MPa, ν 0.3, φ 36°, ψ 6°, e0 0.6)",
+    )  # fmt: skip
     a = ap.parse_args()
     if not (a.cells_per_radius >= 1 and a.penetration > 0 and math.isfinite(a.penetration)):
         ap.error("cells per radius ≥ 1 and a positive penetration, please")
     run(
         a.cells_per_radius, a.penetration, a.scaling, a.velocity, a.rim, a.base, a.safety_factor,
-        profile=a.profile,
+        soil=a.soil, profile=a.profile,
     )  # fmt: skip
 
 
