@@ -389,6 +389,7 @@ class AxisymmetricPileContact:
         # the nodes of the columns 0..ia before the nodal pass and after it (trial), reused every step
         self._v_old = np.zeros((ia + 1, nz1, 2))
         self._v_trial = np.zeros((ia + 1, nz1, 2))
+        self._vs = np.zeros(nz1)  # the shaft's vertical velocity per node row, filled every step
         self._kc = -1
         # base_row() every step: the grid's node elevations as a list (bisect) and the tolerance, once
         self._z_nodes = g.z.tolist()
@@ -492,7 +493,8 @@ class AxisymmetricPileContact:
         s = self.pile.surface()
         vp = float(s.layer_v[0, 2])  # the base moves with the lowest level
         if s.layer_z.shape[0] == 1:
-            vs = np.full(f.grid.nz + 1, vp)
+            vs = self._vs
+            vs.fill(vp)
         else:  # (clamped to the end levels beyond them, as in 3D)
             vs = np.interp(f.grid.z, s.layer_z, s.layer_v[:, 2])
         t_edge = -1.0
