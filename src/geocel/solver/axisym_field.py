@@ -36,7 +36,6 @@ from ..materials.tensor import KERNEL_OPTIONS
 from .field import (
     E_MAX,
     E_MIN,
-    ENERGY_KEYS,
     FieldBalances,
     InstabilityError,
     Material,
@@ -126,18 +125,7 @@ class AxisymmetricField(FieldBalances):
         self.u_remap = np.zeros(nshape + (2,))
         self._force_factors = np.empty(shape + (FORCE_FACTORS_RZ,))  # scratch of the nodal pass
         self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / node_spacing(g.hz))
-        self.time = 0.0
-        self.step_count = 0
-        self.remap_count = 0
-        self.dt = 0.0
-        self.dt_critical = np.inf
-        self.governing_cell = -1
-        self.energy = dict.fromkeys(ENERGY_KEYS, 0.0)
-        self.lost_mass = 0.0
-        self.capped_volume = 0.0
-        self.mass_tiny = 0.0
-        self.initial_mass = 0.0
-        self.timers: dict[str, float] = dict.fromkeys(("nodes", "cells", "remap", "bookkeeping"), 0.0)
+        self._init_bookkeeping()
         #: contact with a pile (:class:`geocel.contact.axisym.AxisymmetricPileContact`), applied to the trial
         #: velocities of every step
         self.contact = None

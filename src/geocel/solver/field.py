@@ -146,6 +146,23 @@ class FieldBalances:
         self.gravity = self.settings.gravity / self.scaling
         self.grain_density = self.material.grain_density * self.scaling
 
+    def _init_bookkeeping(self) -> None:
+        """Clock, step and remap counters, the time step's record, energies, mass accounts and phase timers
+        of a field that has not stepped yet."""
+        self.time = 0.0
+        self.step_count = 0
+        self.remap_count = 0
+        self.dt = 0.0
+        self.dt_critical = np.inf
+        self.governing_cell = -1
+        self.energy = dict.fromkeys(ENERGY_KEYS, 0.0)
+        self.lost_mass = 0.0
+        self.capped_volume = 0.0
+        self.mass_tiny = 0.0
+        self.initial_mass = 0.0
+        #: accumulated wall time per phase of the step, s
+        self.timers: dict[str, float] = dict.fromkeys(("nodes", "cells", "remap", "bookkeeping"), 0.0)
+
     def energy_balance_error(self) -> float:
         """KE + internal + dissipation − external work − (kinetic energy removed by the remap), J."""
         e = self.energy
@@ -198,26 +215,14 @@ class SoilField(FieldBalances):
         self.v = np.zeros(nshape + (3,))
         #: node displacements since the last remap (m), when the remap is deferred (``remap_courant`` > 0)
         self.u_remap = np.zeros(nshape + (3,))
-        self.remap_count = 0
         self._node_reciprocal = tuple(1.0 / node_spacing(h) for h in (g.hx, g.hy, g.hz))
         self.nmass = np.zeros(nshape)
         self.fix = g.node_constraints()
-        self.time = 0.0
-        self.step_count = 0
-        self.dt = 0.0
-        self.dt_critical = np.inf
-        self.governing_cell = -1
-        self.energy = dict.fromkeys(ENERGY_KEYS, 0.0)
-        self.lost_mass = 0.0
-        self.capped_volume = 0.0
-        self.mass_tiny = 0.0
-        self.initial_mass = 0.0
+        self._init_bookkeeping()
         self.rule_counts: dict[str, int] = {}
         #: contact with a Lagrangian body (:class:`geocel.contact.coupling.ContactCoupling`), applied to the
         #: trial velocities of every step
         self.contact = None
-        #: accumulated wall time per phase of the step, s
-        self.timers: dict[str, float] = dict.fromkeys(("nodes", "cells", "remap", "bookkeeping"), 0.0)
 
     # --- initial state ------------------------------------------------------------------------------------------
     def fill_below(self, surface: float = 0.0) -> None:
