@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from _cases import tiny_pile
 from geocel.config.scenario import dump_scenario, scenario_from_dict
 from geocel.io import checkpoint as ckpt
 from geocel.solver.output import (
@@ -32,18 +33,7 @@ from geocel.solver.output import (
 
 ROOT = Path(__file__).resolve().parents[1]
 
-PILE = {
-    "name": "callbacks",
-    "domain": {
-        "symmetry": "quarter", "radius": 0.6, "soil_depth": 0.8, "void_height": 0.2, "fine_size": 0.1,
-        "fine_radius": 0.3, "fine_depth": 0.4, "growth": 1.3,
-    },
-    "soil": {"model": "mohr-coulomb", "preset": "mohr-coulomb-sand", "layers": [{"top": 0.0, "e0": 0.7}]},
-    "pile": {"type": "coupled", "diameter": 0.2, "length": 0.6, "initial_embedment": 0.1},
-    "loading": {"velocity": 0.5, "penetration": 0.06, "ramp": 0.01},
-    "scaling": {"mass_gravity": 100},
-    "output": {"history_every": 0.005, "fields_every": 0.03, "checkpoint_every_steps": 100},
-}  # fmt: skip
+PILE = tiny_pile("callbacks")
 
 #: the user outputs of the simulation cases: (file, schedule factory); the intervals exceed one step's
 #: increment (≈ 3e-4 s, ≤ 2.5e-4 m), so output n is at the first step that reaches n × the interval
