@@ -9,7 +9,7 @@ the node line r = a. Contact: :mod:`geocel.contact.axisym`.
 
     NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_jacking.py --cells-per-radius 6 [--penetration 1.2]
         [--scaling 10] [--velocity 0.5] [--base band|edge] [--rim base|split|shaft] [--profile]
-        [--soil hypoplastic|mohr-coulomb]
+        [--soil hypoplastic|hypoplastic-no-igs|mohr-coulomb]
 
 Prints, at every 0.1 m of base depth, q_b (MPa) and q_s (kPa), each the mean over the steps within ±0.025 m
 of that depth (the base crosses a node row every a/n: the instantaneous values ripple with that period),
@@ -62,6 +62,11 @@ def run(
         sc = sc.model_copy(
             update={"soil": sc.soil.model_copy(update={"material": MOHR_COULOMB_SAND, "layers": layers})}
         )
+    elif soil == "hypoplastic-no-igs":  # the same sand without the intergranular strain (docs/validation.md)
+        plain = sc.soil.material.model_copy(update={"intergranular_strain": False})
+        sc = sc.model_copy(update={"soil": sc.soil.model_copy(update={"material": plain})})
+    elif soil != "hypoplastic":
+        raise ValueError(f"soil = {soil!r}: hypoplastic, hypoplastic-no-igs or mohr-coulomb")
     mat = sc.soil.material
     h = RADIUS / cells_per_radius
     g = AxisymmetricGrid.graded(
@@ -144,8 +149,9 @@ def main() -> None:
     ap.add_argument("--safety-factor", type=float, default=None, help="Δt = this × the stable step (0.9)")
     ap.add_argument("--profile", action="store_true", help="print where the wall time went")
     ap.add_argument(
-        "--soil", default="hypoplastic", choices=("hypoplastic", "mohr-coulomb"),
-        help="the preset's sand, or a Mohr–Coulomb sand (E 30 MPa, ν 0.3, φ 36°, ψ 6°, e0 0.6)",
+        "--soil", default="hypoplastic", choices=("hypoplastic", "hypoplastic-no-igs", "mohr-coulomb"),
+        help="the preset's sand, the same without intergranular strain, or a Mohr–Coulomb sand (E 30 MPa, "
+        "ν 0.3, φ 36°, ψ 6°, e0 0.6)",
     )  # fmt: skip
     a = ap.parse_args()
     if not (a.cells_per_radius >= 1 and a.penetration > 0 and math.isfinite(a.penetration)):

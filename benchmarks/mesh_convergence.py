@@ -4,13 +4,16 @@ between successive ones, and the radial stress in the soil next to the shaft aft
     python benchmarks/mesh_convergence.py --mode axisymmetric --cells-per-radius 3 6 12 [--penetration 3]
     python benchmarks/mesh_convergence.py --mode 3d --cells-per-radius 1.5 2 3 [--kind rigid|coupled]
         [--scaling 10] [--velocity 0.5] [--jobs N] [--threads T] [--out runs/mesh_convergence]
+    python benchmarks/mesh_convergence.py --mode axisymmetric --rim split --soil mohr-coulomb ...
 
 Both modes use the same problem: the ``deeks-white`` preset's sand (Fraction E, I_D = 0.93, K0 = 0.5,
 μ = tan(2/3 φ_c)), a D = 0.6 m pile with a flat base jacked from the surface, MGS factor S (default 10),
 0.5 m/s, in a container of radius 4 m and depth 6 m (a smaller container than the centrifuge's: the base
 resistance is set within a few diameters of the pile, and the same container in 3D and r–z makes them
 comparable). ``--cells-per-radius n``: fine cells of a/n (a = 0.3 m) around the pile; 3D quarter model
-(3D accepts fractions: 1.5 is the `demo` preset's 0.2 m cells) or axisymmetric (integer n, rigid pile).
+(3D accepts fractions: 1.5 is the `demo` preset's 0.2 m cells) or axisymmetric (integer n, rigid pile;
+``--rim`` the r–z contact's treatment of the node under the pile's corner, ``--soil`` the preset's sand or
+the Mohr–Coulomb sand of ``benchmarks/axisymmetric_jacking.py``).
 
 Runs go in parallel (``--jobs`` processes with ``--threads`` Numba threads each). Per run: a CSV of q_b and
 q_s every 0.1 m of tip depth (each the mean over one fine cell of depth around it: the tip crossing cell
@@ -59,7 +62,7 @@ def _radial_profile(zc, r, srr, weight, band, tip):
     return np.array(rows) if rows else np.zeros((0, 2))
 
 
-def run_3d(n: float, penetration: float, kind: str, scaling: float, velocity: float, out: Path) -> dict:
+def run_3d(n: float, penetration: float, kind: str, scaling: float, velocity: float, out: Path, **_) -> dict:
     from geocel.benchmark.presets import preset_dict
     from geocel.config.scenario import scenario_from_dict
     from geocel.io.history import read_history
@@ -104,7 +107,16 @@ def run_3d(n: float, penetration: float, kind: str, scaling: float, velocity: fl
     }  # fmt: skip
 
 
-def run_rz(n: float, penetration: float, kind: str, scaling: float, velocity: float, out: Path) -> dict:
+def run_rz(
+    n: float,
+    penetration: float,
+    kind: str,
+    scaling: float,
+    velocity: float,
+    out: Path,
+    rim: str = "base",
+    soil: str = "hypoplastic",
+) -> dict:
     sys.path.insert(0, str(Path(__file__).parent))
     from axisymmetric_jacking import run
 
@@ -116,7 +128,7 @@ def run_rz(n: float, penetration: float, kind: str, scaling: float, velocity: fl
         )
     t0 = time.perf_counter()
     o = run(int(n), penetration, scaling, velocity, container_radius=CONTAINER["radius"],
-            container_depth=CONTAINER["soil_depth"], verbose=False, raw=True)  # fmt: skip
+            container_depth=CONTAINER["soil_depth"], rim=rim, soil=soil, verbose=False, raw=True)  # fmt: skip
     wall = time.perf_counter() - t0
     f = o["field"]
     g = f.grid
@@ -126,16 +138,16 @@ def run_rz(n: float, penetration: float, kind: str, scaling: float, velocity: fl
     phi = f.Vs / f.volume
     prof = _radial_profile(zc, rc, f.stress[..., 0], np.where(phi > 0.99, f.Vs, 0.0), h, penetration)
     return {
-        "name": f"rz-rigid-n{n:g}", "mode": "axisymmetric", "n": n, "h": h, "cells": o["cells"],
+        "name": f"rz-{soil}-{rim}-n{n:g}", "mode": "axisymmetric", "n": n, "h": h, "cells": o["cells"],
         "steps": o["steps"], "wall_s": wall, "status": "finished", "depth": o["depth"], "qb": o["qb"],
         "qs": o["qs"], "profile": prof, "inertia": float("nan"),
     }  # fmt: skip
 
 
 def _one(args) -> dict:
-    mode, n, penetration, kind, scaling, velocity, out = args
+    mode, n, penetration, kind, scaling, velocity, out, options = args
     fn = run_3d if mode == "3d" else run_rz
-    r = fn(n, penetration, kind, scaling, velocity, out)
+    r = fn(n, penetration, kind, scaling, velocity, out, **options)
     at = np.round(np.arange(0.1, penetration + 1e-9, 0.1), 6)
     r["at"] = at
     r["qb_at"] = _window_mean(r["depth"], r["qb"], at, r["h"])
@@ -227,6 +239,13 @@ def main() -> None:
     ap.add_argument("--kind", default="rigid", choices=("rigid", "coupled"))
     ap.add_argument("--scaling", type=float, default=10.0, help="MGS factor S")
     ap.add_argument("--velocity", type=float, default=0.5, help="m/s")
+    ap.add_argument("--rim", default="base", choices=("base", "split", "shaft"), help="r–z only")
+    ap.add_argument(
+        "--soil",
+        default="hypoplastic",
+        choices=("hypoplastic", "hypoplastic-no-igs", "mohr-coulomb"),
+        help="r–z only",
+    )
     ap.add_argument("--jobs", type=int, default=1, help="runs at a time")
     ap.add_argument("--threads", type=int, default=1, help="Numba threads per run")
     ap.add_argument("--out", type=Path, default=Path("runs/mesh_convergence"))
@@ -236,7 +255,12 @@ def main() -> None:
     if any(not (n > 0 and math.isfinite(n)) for n in a.cells_per_radius):
         ap.error("cells per radius must be positive numbers")
     a.out.mkdir(parents=True, exist_ok=True)
-    tasks = [(a.mode, n, a.penetration, a.kind, a.scaling, a.velocity, a.out) for n in a.cells_per_radius]
+    if a.mode == "3d" and (a.rim != "base" or a.soil != "hypoplastic"):
+        ap.error("--rim and --soil are options of the axisymmetric mode")
+    options = {"rim": a.rim, "soil": a.soil}
+    tasks = [
+        (a.mode, n, a.penetration, a.kind, a.scaling, a.velocity, a.out, options) for n in a.cells_per_radius
+    ]
     ctx = get_context("spawn")  # Numba reads its thread count at import: set it before, in a fresh process
     with ProcessPoolExecutor(a.jobs, mp_context=ctx, initializer=_set_threads, initargs=(a.threads,)) as ex:
         results = list(ex.map(_one, tasks))
