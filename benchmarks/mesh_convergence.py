@@ -4,7 +4,7 @@ between successive ones, and the radial stress in the soil next to the shaft aft
     python benchmarks/mesh_convergence.py --mode axisymmetric --cells-per-radius 3 6 12 [--penetration 3]
     python benchmarks/mesh_convergence.py --mode 3d --cells-per-radius 1.5 2 3 [--kind rigid|coupled]
         [--scaling 10] [--velocity 0.5] [--jobs N] [--threads T] [--out runs/mesh_convergence]
-    python benchmarks/mesh_convergence.py --mode axisymmetric --rim split --soil mohr-coulomb ...
+    python benchmarks/mesh_convergence.py --mode axisymmetric --rim split --soil hypoplastic-no-igs ...
 
 Both modes use the same problem: the ``deeks-white`` preset's sand (Fraction E, I_D = 0.93, K0 = 0.5,
 μ = tan(2/3 φ_c)), a D = 0.6 m pile with a flat base jacked from the surface, MGS factor S (default 10),
@@ -12,8 +12,8 @@ Both modes use the same problem: the ``deeks-white`` preset's sand (Fraction E, 
 resistance is set within a few diameters of the pile, and the same container in 3D and r–z makes them
 comparable). ``--cells-per-radius n``: fine cells of a/n (a = 0.3 m) around the pile; 3D quarter model
 (3D accepts fractions: 1.5 is the `demo` preset's 0.2 m cells) or axisymmetric (integer n, rigid pile;
-``--rim`` the r–z contact's treatment of the node under the pile's corner, ``--soil`` the preset's sand or
-the Mohr–Coulomb sand of ``benchmarks/axisymmetric_jacking.py``).
+``--rim`` the r–z contact's treatment of the node under the pile's corner, ``--soil`` the preset's sand,
+the same without intergranular strain, or the Mohr–Coulomb sand of ``benchmarks/axisymmetric_jacking.py``).
 
 Runs go in parallel (``--jobs`` processes with ``--threads`` Numba threads each). Per run: a CSV of q_b and
 q_s every 0.1 m of tip depth (each the mean over one fine cell of depth around it: the tip crossing cell
