@@ -14,23 +14,17 @@ import pytest
 import tomli_w
 from typer.testing import CliRunner
 
+from _cases import tiny_pile
 from geocel.cli import app
 from geocel.sweep import Study, StudyError, expand_range
 
 runner = CliRunner()
 
 #: a coupled pile jacked 3 cm into a tiny Mohr–Coulomb box (≈ 250 steps, well under a second once compiled)
-TINY = {
-    "domain": {
-        "symmetry": "quarter", "radius": 0.6, "soil_depth": 0.8, "void_height": 0.2, "fine_size": 0.1,
-        "fine_radius": 0.3, "fine_depth": 0.4, "growth": 1.3,
-    },
-    "soil": {"model": "mohr-coulomb", "preset": "mohr-coulomb-sand", "layers": [{"top": 0.0, "e0": 0.7}]},
-    "pile": {"type": "coupled", "diameter": 0.2, "length": 0.6, "initial_embedment": 0.1},
-    "loading": {"velocity": 0.5, "penetration": 0.03, "ramp": 0.01},
-    "scaling": {"mass_gravity": 100},
-    "output": {"history_every": 0.005, "fields_every": 0.03, "checkpoint_every_steps": 40},
-}  # fmt: skip
+TINY = tiny_pile("tiny")
+del TINY["name"]
+TINY["loading"]["penetration"] = 0.03
+TINY["output"]["checkpoint_every_steps"] = 40
 
 
 def _study(**top) -> dict:
