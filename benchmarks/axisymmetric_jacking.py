@@ -55,6 +55,7 @@ def run(
     verbose: bool = True,
     raw: bool = False,
     profile: bool = False,
+    frame: str = "lab",
 ) -> dict:
     sc = preset_scenario("deeks-white")
     if soil == "mohr-coulomb":  # a soil without rate or density effects, for checks of the contact and grid
@@ -69,10 +70,13 @@ def run(
         raise ValueError(f"soil = {soil!r}: hypoplastic, hypoplastic-no-igs or mohr-coulomb")
     mat = sc.soil.material
     h = RADIUS / cells_per_radius
+    if frame == "pile":  # the grid moves with the base: fine cells 1.5 m below it and along the shaft
+        fine_depth, void = min(1.5, container_depth), penetration + 0.5
+    else:
+        fine_depth, void = min(penetration + 1.0, container_depth), 0.5
     g = AxisymmetricGrid.graded(
-        radius=container_radius, soil_depth=container_depth, void_height=0.5, fine_size=h,
-        fine_radius=4.0 * RADIUS, fine_depth=min(penetration + 1.0, container_depth), growth=1.15,
-        max_size=0.5,
+        radius=container_radius, soil_depth=container_depth, void_height=void, fine_size=h,
+        fine_radius=4.0 * RADIUS, fine_depth=fine_depth, growth=1.15, max_size=0.5,
     )  # fmt: skip
     settings = solver_settings(sc, **({} if safety_factor is None else {"safety_factor": safety_factor}))
     f = AxisymmetricField(g, mat, scaling=scaling, settings=settings)
@@ -83,6 +87,8 @@ def run(
     c = AxisymmetricPileContact(
         f, RigidPileRZ(RADIUS, 0.0), friction=mu, base_friction=mu, rim=rim, base=base
     )
+    if frame == "pile":
+        c.follow_pile()
     depth, qb, qs = [], [], []
 
     def record(c):
@@ -113,6 +119,7 @@ def run(
         "friction_excess": c.worst_friction_excess,
         "energy_error": f.energy_balance_error() / max(f.energy["external_work"], 1e-300),
         "timers": dict(f.timers),
+        "frame": frame,
     }
     if raw:  # every step's values and the final field, for studies that post-process them
         out.update(depth=depth, qb=qb, qs=qs, field=f, contact=c)
@@ -149,6 +156,10 @@ def main() -> None:
     ap.add_argument("--safety-factor", type=float, default=None, help="Δt = this × the stable step (0.9)")
     ap.add_argument("--profile", action="store_true", help="print where the wall time went")
     ap.add_argument(
+        "--frame", default="lab", choices=("lab", "pile"),
+        help="a grid fixed in the laboratory, or one that moves with the pile's base (soil flows in at the bottom)",
+    )  # fmt: skip
+    ap.add_argument(
         "--soil", default="hypoplastic", choices=("hypoplastic", "hypoplastic-no-igs", "mohr-coulomb"),
         help="the preset's sand, the same without intergranular strain, or a Mohr–Coulomb sand (E 30 MPa, "
         "ν 0.3, φ 36°, ψ 6°, e0 0.6)",
@@ -158,7 +169,7 @@ def main() -> None:
         ap.error("cells per radius ≥ 1 and a positive penetration, please")
     run(
         a.cells_per_radius, a.penetration, a.scaling, a.velocity, a.rim, a.base, a.safety_factor,
-        soil=a.soil, profile=a.profile,
+        soil=a.soil, profile=a.profile, frame=a.frame,
     )  # fmt: skip
 
 

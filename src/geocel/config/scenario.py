@@ -136,9 +136,18 @@ class Domain(_Table):
         1.15, ge=1.0, le=2.0, description="largest ratio of neighbouring cell sizes outside the fine zone, -"
     )
     max_size: float | None = Field(None, gt=0.0, description="largest cell size, m (None: no limit)")
+    frame: Literal["laboratory", "pile"] = Field(
+        "laboratory",
+        description="the grid's frame: laboratory (fixed; the pile's base moves through the node rows) or pile "
+        "(axisymmetric only: the grid moves down with the pile's base, which stays on its node row, and "
+        "undisturbed soil flows in through the bottom; soil_depth and fine_depth are then measured below the "
+        "base's start, and void_height must hold the penetration plus the heave)",
+    )
 
     @model_validator(mode="after")
     def _check(self) -> Domain:
+        if self.frame == "pile" and self.symmetry != "axisymmetric":
+            raise _invalid(("frame",), self.frame, 'the pile\'s frame needs symmetry = "axisymmetric"')
         if self.fine_size >= self.radius:
             raise _invalid(("fine_size",), self.fine_size, f"must be smaller than radius = {self.radius} m")
         if self.fine_size >= self.soil_depth:
@@ -588,6 +597,16 @@ class Scenario(_Table):
                 f"longer than the domain is high (soil_depth + void_height = {height:g} m)",
             )
         tip = pile.initial_embedment + self.loading.penetration
+        if dom.frame == "pile":  # the grid moves with the base: the base never nears the grid's bottom, but
+            # the ground surface rises through the void by the penetration
+            tip = pile.initial_embedment
+            if self.loading.penetration > dom.void_height:
+                raise _invalid(
+                    ("domain", "void_height"),
+                    dom.void_height,
+                    f"in the pile's frame the surface rises by the penetration ({self.loading.penetration:g} m) "
+                    "through the void: void_height must hold it plus the heave (about one diameter more)",
+                )
         if tip >= dom.soil_depth:
             raise _invalid(
                 ("loading", "penetration"),

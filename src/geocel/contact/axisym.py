@@ -394,8 +394,11 @@ class AxisymmetricPileContact:
         # base_row() every step: the grid's node elevations as a list (bisect) and the tolerance, once
         self._z_nodes = g.z.tolist()
         self._row_tol = 1e-9 * float(g.hz.min())
-        self._pile_motion = 0.0  # the pile's vertical displacement since the last remap, m
-        self._z_remap = s.z_apex  # the base's elevation at the last remap, m
+        self._pile_motion = (
+            0.0  # the pile's vertical displacement relative to the grid since the last remap, m
+        )
+        self._z_remap = s.z_apex - field.frame_offset  # the base's elevation in the grid at the last remap, m
+        self._z_frame: float | None = None  # the base's elevation in a grid that moves with it (follow_pile)
         #: forces of the last step on the whole pile (N, × 2π): base (r, z) and shaft (normal, z)
         self.base_force = np.zeros(2)
         self.shaft_force = np.zeros(2)
@@ -419,19 +422,38 @@ class AxisymmetricPileContact:
         """Depth of the base below the ground surface (m)."""
         return -self.z_base
 
+    @property
+    def z_base_grid(self) -> float:
+        """Elevation of the pile's base in the grid's coordinates (m; the laboratory's in a fixed grid)."""
+        return self.z_base - self.field.frame_offset
+
+    def follow_pile(self) -> None:
+        """Solve in the pile's frame: the grid moves with the pile's base (:meth:`AxisymmetricField.move_with`),
+        which therefore stays on its node row; no row is ever captured or released. Call before the first
+        step, after the geostatic state (and a pile wished in place); the base must lie on a node row."""
+        zb = self.z_base_grid
+        k = self.base_row()
+        if abs(self._z_nodes[k] - zb) > 1e-9 * float(self.field.hz[k]):
+            raise ValueError(
+                f"in the pile's frame the base (z = {zb:.6g} m) must lie on a node row of the grid (the nearest "
+                f"below is z = {self._z_nodes[k]:.6g} m): an initial embedment of whole fine cells"
+            )
+        self._z_frame = self._z_nodes[k]
+        self.field.move_with()
+
     def base_row(self) -> int:
         """Node row k_c at or just below the base (z[k_c] ≤ z_b, to 1e-9 of a cell)."""
-        zb = self.z_base
+        zb = self.z_base_grid
         k = bisect.bisect_right(self._z_nodes, zb + self._row_tol) - 1
         if k < 0:
             raise ValueError(f"the pile's base z = {zb:.6g} m is below the grid")
         return k
 
     def pile_fraction(self, z_base: float | None = None) -> np.ndarray:
-        """Fraction of every cell inside the pile (nr, nz): the columns r < a above the base (at ``z_base``,
-        default the pile's), exact."""
+        """Fraction of every cell inside the pile (nr, nz): the columns r < a above the base (at ``z_base`` in
+        the grid's coordinates, default the pile's), exact."""
         g = self.field.grid
-        zb = self.z_base if z_base is None else z_base
+        zb = self.z_base_grid if z_base is None else z_base
         out = np.zeros(g.shape)
         out[: self.ia, :] = np.clip((g.z[1:] - zb) / g.hz, 0.0, 1.0)[None, :]
         return out
@@ -478,15 +500,23 @@ class AxisymmetricPileContact:
         p.end_step(dt)
         self.field.step(dt)
 
-    def before_nodes(self) -> None:
-        self._kc = kc = self.base_row()
-        self._v_old[:, kc:] = self.field.v[: self.ia + 1, kc:]
+    def before_nodes(self, dt: float | None = None) -> None:
+        """Set the grid's velocity in the pile's frame (the pile has moved for this step: the grid follows so
+        that the base is back on its row after the step), find the base's node row and keep the velocities
+        of the nodes the contact may change."""
+        f = self.field
+        if self._z_frame is not None and dt is not None:
+            f.frame_velocity = (self.z_base - f.frame_offset - self._z_frame) / dt
+            self._kc = kc = bisect.bisect_right(self._z_nodes, self._z_frame + self._row_tol) - 1
+        else:
+            self._kc = kc = self.base_row()
+        self._v_old[:, kc:] = f.v[: self.ia + 1, kc:]
 
     def apply(self, dt: float) -> None:
         """Project the trial velocities (in place) and record the forces and the work of the step."""
         f = self.field
         if self._kc < 0:
-            self.before_nodes()
+            self.before_nodes(dt)
         kc, ia = self._kc, self.ia
         self._kc = -1
         out = self._out
@@ -499,7 +529,7 @@ class AxisymmetricPileContact:
             vs = np.interp(f.grid.z, s.layer_z, s.layer_v[:, 2])
         t_edge = -1.0
         if self.base == "edge" and kc + 1 <= f.grid.nz:
-            t_edge = min(max((s.z_apex - self._z_nodes[kc]) / f.hz[kc], 0.0), 1.0)
+            t_edge = min(max((s.z_apex - f.frame_offset - self._z_nodes[kc]) / f.hz[kc], 0.0), 1.0)
         w = self._work
         worst, stray, fsum = contact_step_rz(
             ia, kc, t_edge, f.hr, f.hz, f.rc, f.Vs, f.mass, f.stress, f.q, f.hg, f.nmass, f.v, f.fix, f.mass_tiny,
@@ -519,7 +549,7 @@ class AxisymmetricPileContact:
         self.shaft_force[1] = two_pi * out[3]
         self.contact_nodes = int(out[5])
         self.pile.load = self._level_load(s, kc, self._v_trial[:, kc:], dt)
-        self._pile_motion += vp * dt
+        self._pile_motion += (vp - f.frame_velocity) * dt
         e = f.energy
         e["internal"] += w[0]
         e["viscous"] += w[1]
@@ -570,7 +600,7 @@ class AxisymmetricPileContact:
         """No inward mesh motion through the shaft's faces (u_r ≥ 0 on the shaft column from the base row
         up), so the remap cannot carry soil into the pile (module docstring)."""
         ia, kc = self.ia, self.base_row()
-        self._z_remap = self.z_base
+        self._z_remap = self.z_base_grid
         col = displacement[ia, kc:, 0]
         neg = col < 0.0
         if neg.any():
@@ -606,6 +636,8 @@ class AxisymmetricPileContact:
             body = {f"body_{k}": v for k, v in p.state_arrays().items()}
         scalars += [self._pile_motion, self._z_remap, self.soil_work]
         scalars += [self.friction_work, self.worst_friction_excess, self.clamped_motion, self.contact_nodes]
+        f = self.field  # the pile's frame (its inflow reference is rebuilt with the model)
+        scalars += [f.frame_offset, f.frame_velocity, f.inflow_mass]
         return {
             "scalars": np.array(scalars, dtype=float),
             "base_force": self.base_force.copy(),
@@ -626,6 +658,9 @@ class AxisymmetricPileContact:
         self._pile_motion, self._z_remap, self.soil_work = sc[3:6]
         self.friction_work, self.worst_friction_excess, self.clamped_motion = sc[6:9]
         self.contact_nodes = int(sc[9])
+        if len(sc) > 10:  # (checkpoints before the pile's frame: a fixed grid)
+            f = self.field
+            f.frame_offset, f.frame_velocity, f.inflow_mass = sc[10:13]
         for name in ("base_force", "shaft_force", "shaft_normal", "shaft_friction"):
             getattr(self, name)[...] = arrays[name]
 

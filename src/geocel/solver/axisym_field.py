@@ -45,15 +45,16 @@ from .field import (
 
 
 @njit(**KERNEL_OPTIONS)
-def _accumulate_rz(rr, rz, v, dt, u):
-    """u ← u + v Δt at every node; returns the largest |u_d|/spacing (the pending remap's Courant number).
+def _accumulate_rz(rr, rz, v, dt, u, wz):
+    """u ← u + (v − w) Δt at every node, w = (0, ``wz``) the grid's own velocity (the pile's frame; 0 for a
+    fixed grid); returns the largest |u_d|/spacing (the pending remap's Courant number).
     Serial: a few flops per node, less than what a parallel region costs to start on busy cores."""
     n1, n2, _ = v.shape
     c = 0.0
     for i in range(n1):
         for k in range(n2):
             a = u[i, k, 0] + dt * v[i, k, 0]
-            b = u[i, k, 1] + dt * v[i, k, 1]
+            b = u[i, k, 1] + dt * (v[i, k, 1] - wz)
             u[i, k, 0] = a
             u[i, k, 1] = b
             c = max(c, abs(a) * rr[i], abs(b) * rz[k])
@@ -129,6 +130,13 @@ class AxisymmetricField(FieldBalances):
         #: contact with a pile (:class:`geocel.contact.axisym.AxisymmetricPileContact`), applied to the trial
         #: velocities of every step
         self.contact = None
+        #: the grid's own vertical velocity in the laboratory (m/s; set every step by the contact in the pile's
+        #: frame, :meth:`move_with`) and the laboratory elevation of its z = 0 (m)
+        self.frame_velocity = 0.0
+        self.frame_offset = 0.0
+        #: soil that entered through the bottom of a moving grid (kg/rad, scaled by S)
+        self.inflow_mass = 0.0
+        self._inflow = None
 
     # --- initial state ------------------------------------------------------------------------------------------
     def fill_below(self, surface: float = 0.0) -> None:
@@ -222,7 +230,8 @@ class AxisymmetricField(FieldBalances):
         contact = self.contact
         t0 = perf_counter()
         if contact is not None:
-            contact.before_nodes()
+            contact.before_nodes(dt)
+        wz = self.frame_velocity
         ke, dEi, dEv, dEh, wg, wx = advance_nodes_rz(
             self.hr, self.hz, self.rc, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass, self.v,
             self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
@@ -249,12 +258,17 @@ class AxisymmetricField(FieldBalances):
             if not deferred:
                 self.u_remap[...] = 0.0
             courant = _accumulate_rz(
-                self._node_reciprocal[0], self._node_reciprocal[1], self.v, dt, self.u_remap
+                self._node_reciprocal[0], self._node_reciprocal[1], self.v, dt, self.u_remap, wz
             )
+            self.frame_offset += wz * dt
             if not deferred or courant >= rc_:
                 if contact is not None:
                     contact.before_remap(self.u_remap)
                 self.remap(self.u_remap)
+                if self._inflow is not None:
+                    self._refill_bottom()
+        else:
+            self.frame_offset += wz * dt
         t3 = perf_counter()
         e = self.energy
         e["kinetic"] = ke
@@ -290,6 +304,41 @@ class AxisymmetricField(FieldBalances):
         self.lost_mass += lost
         self.capped_volume += capped
         self.remap_count += 1
+
+    # --- the pile's frame ---------------------------------------------------------------------------------
+    def move_with(self) -> None:
+        """Let the grid move vertically with ``frame_velocity`` (the pile's frame, set every step by the
+        contact): the remap advects with the soil's velocity relative to the grid, v − w, and the soil enters
+        through the bottom as the grid descends. The bottom node row keeps the laboratory's fixed base
+        (v = 0): it stands for the undisturbed far field. After every remap the bottom cell row is refilled
+        with the geostatic state it had at the start, its stress moved along the initial vertical gradient
+        to the row's present depth (exact in a uniform layer), so the soil flowing in is undisturbed; the
+        mass it brings in is counted in ``inflow_mass``. Call after the geostatic state is set."""
+        zc = self.grid.zc
+        self._inflow = {
+            "Vs": self.Vs[:, 0].copy(),
+            "mass": self.mass[:, 0].copy(),
+            "state": self.state[:, 0].copy(),
+            "stress": self.stress[:, 0].copy(),
+            "gradient": (self.stress[:, 1] - self.stress[:, 0]) / (zc[1] - zc[0]),
+        }
+
+    def _refill_bottom(self) -> None:
+        ref = self._inflow
+        before = float(self.mass[:, 0].sum())
+        self.Vs[:, 0] = ref["Vs"]
+        self.mass[:, 0] = ref["mass"]
+        self.state[:, 0] = ref["state"]
+        self.stress[:, 0] = ref["stress"] + self.frame_offset * ref["gradient"]
+        self.inflow_mass += float(self.mass[:, 0].sum()) - before
+        node_mass_rz(self.mass, self.nmass)
+
+    def mass_error(self) -> float:
+        """Relative change of soil mass, counting mass that left through the top as kept and mass that came
+        in through the bottom of a moving grid as added."""
+        if self.initial_mass == 0:
+            return 0.0
+        return (self.soil_mass() + self.lost_mass - self.inflow_mass - self.initial_mass) / self.initial_mass
 
     # --- diagnostics ------------------------------------------------------------------------------------------
     def soil_mass(self) -> float:

@@ -380,6 +380,10 @@ class AxisymmetricBackend(Backend):
             self.pile = pile
             if p.initial_embedment > 0.0:
                 self.contact.wish_in_place()
+            if d.frame == "pile":
+                self.contact.follow_pile()
+        elif d.frame == "pile":
+            raise ValueError("the pile's frame needs a pile")
 
     def soil_cells(self) -> int:
         return int(self.field.grid.n_cells)
@@ -389,11 +393,11 @@ class AxisymmetricBackend(Backend):
             return None
         g = self.field.grid
         i, k = np.unravel_index(index, g.shape)
-        return float(g.rc[i]), float(g.zc[k])
+        return float(g.rc[i]), float(g.zc[k] + self.field.frame_offset)
 
     def _node_axes(self) -> tuple[np.ndarray, ...]:
         g = self.field.grid
-        return g.r, g.z
+        return g.r, g.z + self.field.frame_offset  # (the laboratory's elevations in the pile's frame)
 
     @property
     def _body(self) -> bool:
@@ -503,9 +507,11 @@ class AxisymmetricBackend(Backend):
 
     def write_fields(self, run_dir: RunDirectory, index: int) -> list[tuple[Path, int]]:
         f = self.field
-        g = f.grid
         soil = write_rectilinear_rz(
-            run_dir.field_path("soil", index), g.r, g.z, self.cell_fields(), point_data={"velocity": f.v}
+            run_dir.field_path("soil", index),
+            *self._node_axes(),
+            self.cell_fields(),
+            point_data={"velocity": f.v},
         )
         out = [(soil, 0)]
         if self.pile is not None:  # the pile's half-section r ≤ a as a flat hexahedron in the same plane
