@@ -5,6 +5,7 @@ between successive ones, and the radial stress in the soil next to the shaft aft
     python benchmarks/mesh_convergence.py --mode 3d --cells-per-radius 1.5 2 3 [--kind rigid|coupled]
         [--scaling 10] [--velocity 0.5] [--jobs N] [--threads T] [--out runs/mesh_convergence]
     python benchmarks/mesh_convergence.py --mode axisymmetric --rim split --soil hypoplastic-no-igs ...
+    python benchmarks/mesh_convergence.py --mode axisymmetric --frame pile ...   (the grid moves with the base)
 
 Both modes use the same problem: the ``deeks-white`` preset's sand (Fraction E, I_D = 0.93, K0 = 0.5,
 μ = tan(2/3 φ_c)), a D = 0.6 m pile with a flat base jacked from the surface, MGS factor S (default 10),
@@ -116,6 +117,7 @@ def run_rz(
     out: Path,
     rim: str = "base",
     soil: str = "hypoplastic",
+    frame: str = "lab",
 ) -> dict:
     sys.path.insert(0, str(Path(__file__).parent))
     from axisymmetric_jacking import run
@@ -128,17 +130,18 @@ def run_rz(
         )
     t0 = time.perf_counter()
     o = run(int(n), penetration, scaling, velocity, container_radius=CONTAINER["radius"],
-            container_depth=CONTAINER["soil_depth"], rim=rim, soil=soil, verbose=False, raw=True)  # fmt: skip
+            container_depth=CONTAINER["soil_depth"], rim=rim, soil=soil, verbose=False, raw=True,
+            frame=frame)  # fmt: skip
     wall = time.perf_counter() - t0
     f = o["field"]
     g = f.grid
     h = RADIUS / n
     rc = np.broadcast_to(g.rc[:, None], f.Vs.shape)
-    zc = 0.5 * (g.z[:-1] + g.z[1:])
+    zc = 0.5 * (g.z[:-1] + g.z[1:]) + f.frame_offset  # (laboratory elevations in the pile's frame)
     phi = f.Vs / f.volume
     prof = _radial_profile(zc, rc, f.stress[..., 0], np.where(phi > 0.99, f.Vs, 0.0), h, penetration)
     return {
-        "name": f"rz-{soil}-{rim}-n{n:g}", "mode": "axisymmetric", "n": n, "h": h, "cells": o["cells"],
+        "name": f"rz-{soil}-{rim}-{frame}-n{n:g}", "mode": "axisymmetric", "n": n, "h": h, "cells": o["cells"],
         "steps": o["steps"], "wall_s": wall, "status": "finished", "depth": o["depth"], "qb": o["qb"],
         "qs": o["qs"], "profile": prof, "inertia": float("nan"),
     }  # fmt: skip
@@ -246,6 +249,10 @@ def main() -> None:
         choices=("hypoplastic", "hypoplastic-no-igs", "mohr-coulomb"),
         help="r–z only",
     )
+    ap.add_argument(
+        "--frame", default="lab", choices=("lab", "pile"),
+        help="r–z only: a grid fixed in the laboratory or moving with the pile's base (axisymmetric_jacking.py)",
+    )  # fmt: skip
     ap.add_argument("--jobs", type=int, default=1, help="runs at a time")
     ap.add_argument("--threads", type=int, default=1, help="Numba threads per run")
     ap.add_argument("--out", type=Path, default=Path("runs/mesh_convergence"))
@@ -255,9 +262,9 @@ def main() -> None:
     if any(not (n > 0 and math.isfinite(n)) for n in a.cells_per_radius):
         ap.error("cells per radius must be positive numbers")
     a.out.mkdir(parents=True, exist_ok=True)
-    if a.mode == "3d" and (a.rim != "base" or a.soil != "hypoplastic"):
-        ap.error("--rim and --soil are options of the axisymmetric mode")
-    options = {"rim": a.rim, "soil": a.soil}
+    if a.mode == "3d" and (a.rim != "base" or a.soil != "hypoplastic" or a.frame != "lab"):
+        ap.error("--rim, --soil and --frame are options of the axisymmetric mode")
+    options = {"rim": a.rim, "soil": a.soil} | ({"frame": a.frame} if a.mode == "axisymmetric" else {})
     tasks = [
         (a.mode, n, a.penetration, a.kind, a.scaling, a.velocity, a.out, options) for n in a.cells_per_radius
     ]

@@ -19,6 +19,7 @@ from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
 from geocel.grid.axisym import AxisymmetricGrid
 from geocel.io.history import read_history
 from geocel.solver.axisym_field import AxisymmetricField
+from geocel.solver.backend import build_backend
 from geocel.solver.field import SolverSettings
 from geocel.solver.simulation import Simulation
 from geocel.verification import SHIELD_SMOOTH
@@ -189,3 +190,14 @@ def test_restart_in_the_pile_frame_gives_the_same_history(tmp_path):
     np.testing.assert_array_equal(a.to_numpy(), b.to_numpy())
     assert again.field.frame_offset == whole.field.frame_offset
     assert again.field.inflow_mass == whole.field.inflow_mass
+
+
+def test_rim_treatment_is_a_scenario_key_of_the_axisymmetric_mode():
+    d = scenario_dict(frame="pile", void_height=0.25)
+    d["contact"] = {"rim": "split"}
+    backend = build_backend(scenario_from_dict(d))
+    assert backend.contact.rim == "split" and backend.field._inflow is not None
+    d["domain"].update(symmetry="quarter", frame="laboratory")
+    with pytest.raises(ScenarioError) as err:
+        scenario_from_dict(d)
+    assert '[contact].rim = "split": an option of symmetry = "axisymmetric"' in str(err.value)

@@ -380,6 +380,13 @@ class Contact(_Table):
         "where the pile surface crosses the grid's edges (punch and wished-in-place pile exact, but soil flows "
         "into the cells cut by the base rim during jacking; experimental, see docs/numerics.md)",
     )
+    rim: Literal["base", "split", "shaft"] = Field(
+        "base",
+        description="axisymmetric only: the node under the base's corner takes the base's condition (base: the "
+        "base acts half a cell wider, q_b converges from above), the shaft's (shaft: half a cell narrower), or "
+        "the base's on the part of its mass under the base (split: grid-converged q_b from 6–8 cells per radius "
+        "in the pile's frame; docs/numerics.md)",
+    )
 
     def friction_coefficient(self, material: MaterialModel) -> float:
         """μ, -: ``friction`` if given, else tan(2/3 φ) with φ = φ_c (hypoplastic) or φ (Mohr–Coulomb)."""
@@ -539,6 +546,8 @@ class Scenario(_Table):
             self._check_pile_geometry()
             if self.domain.symmetry == "axisymmetric":
                 self._check_axisymmetric_pile()
+            elif self.contact.rim != "base":
+                raise _invalid(("contact", "rim"), self.contact.rim, 'an option of symmetry = "axisymmetric"')
             if self.contact.friction is None and isinstance(self.soil.material, Elastic):
                 raise _invalid(
                     ("contact", "friction"),

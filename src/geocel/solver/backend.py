@@ -375,7 +375,12 @@ class AxisymmetricBackend(Backend):
 
                 pile = build_pile_body(scenario, symmetry="quarter")
             self.contact = AxisymmetricPileContact(
-                f, pile, friction=mu, base_friction=mu, base=scenario.contact.formulation
+                f,
+                pile,
+                friction=mu,
+                base_friction=mu,
+                base=scenario.contact.formulation,
+                rim=scenario.contact.rim,
             )
             self.pile = pile
             if p.initial_embedment > 0.0:
