@@ -112,18 +112,22 @@ def test_jacking_conserves_mass_and_keeps_the_soil_out_of_the_pile():
     assert c.qb() > 0.0 and c.shaft_force[1] > 0.0
 
 
-def _punch(n, rim, base="band"):
+def _punch(n, rim, base="band", frame="laboratory"):
     """Smooth rigid punch (the pile's base, a = 1 m, from the surface) on weightless Tresca soil, remap on:
-    mean q/c_u over 4–8 % D of penetration (the run goes to 8.5 %: the last step decelerates)."""
+    mean q/c_u over 4–8 % D of penetration (the run goes to 8.5 %: the last step decelerates); ``frame``
+    "pile": the grid moves with the base (tests/test_pile_frame.py)."""
     a, cu = 1.0, 10e3
     h = a / n
-    g = AxisymmetricGrid.graded(radius=5 * a, soil_depth=5 * a, void_height=3 * h, fine_size=h,
+    void = 3 * h + (0.2 * a if frame == "pile" else 0.0)  # (the surface rises through the void by 0.17 a)
+    g = AxisymmetricGrid.graded(radius=5 * a, soil_depth=5 * a, void_height=void, fine_size=h,
                                 fine_radius=1.6 * a, fine_depth=1.3 * a, growth=1.25)  # fmt: skip
     mat = Tresca(youngs_modulus=3e6, poisson_ratio=0.45, undrained_strength=cu)
     f = AxisymmetricField(g, mat, settings=SolverSettings(gravity=0.0))
     f.fill_below(0.0)
     f.geostatic([(0.0, 0.65)], k0=1.0)
     c = AxisymmetricPileContact(f, RigidPileRZ(a, 0.0), friction=0.0, rim=rim, base=base)
+    if frame == "pile":
+        c.follow_pile()
     s, q = [], []
 
     def rec(c):

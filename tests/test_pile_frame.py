@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from geocel.config.materials import MohrCoulomb, Tresca
+from geocel.config.materials import MohrCoulomb
 from geocel.config.scenario import ScenarioError, scenario_from_dict
 from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
 from geocel.grid.axisym import AxisymmetricGrid
@@ -23,6 +23,7 @@ from geocel.solver.backend import build_backend
 from geocel.solver.field import SolverSettings
 from geocel.solver.simulation import Simulation
 from geocel.verification import SHIELD_SMOOTH
+from test_axisymmetric_pile import _punch
 from test_axisymmetric_scenario import scenario_dict
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -108,31 +109,6 @@ def test_mgs_holds_in_the_moving_frame():
     assert abs(f.mass_error()) < 1e-12 and f.inflow_mass > 0.0
 
 
-def _punch(n, rim):
-    """Smooth rigid punch (a = 1 m, from the surface) on weightless Tresca soil in the pile's frame: mean q/c_u
-    over 4–8 % D of penetration (the lab-frame twin: tests/test_axisymmetric_pile.py)."""
-    a, cu = 1.0, 10e3
-    h = a / n
-    g = AxisymmetricGrid.graded(radius=5 * a, soil_depth=5 * a, void_height=0.2 + 3 * h, fine_size=h,
-                                fine_radius=1.6 * a, fine_depth=1.3 * a, growth=1.25)  # fmt: skip
-    f = AxisymmetricField(g, Tresca(youngs_modulus=3e6, poisson_ratio=0.45, undrained_strength=cu),
-                          settings=SolverSettings(gravity=0.0))  # fmt: skip
-    f.fill_below(0.0)
-    f.geostatic([(0.0, 0.65)], k0=1.0)
-    c = AxisymmetricPileContact(f, RigidPileRZ(a, 0.0), friction=0.0, rim=rim)
-    c.follow_pile()
-    s, q = [], []
-
-    def rec(c):
-        s.append(c.pile.embedment / (2 * a))
-        q.append(c.qb() / cu)
-
-    jack(c, 0.17 * a, 0.1, ramp=0.01 * a, callback=rec)
-    s, q = np.array(s), np.array(q)
-    assert abs(f.mass_error()) < 1e-12 and c.soil_inside() < 1e-9 * c.pile_volume()
-    return float(q[(s >= 0.04) & (s <= 0.08)].mean())
-
-
 def test_smooth_punch_in_the_pile_frame_meets_shield():
     """In the pile's frame the base stays on its node row, so it acts at its true depth (no band of a cell
     below it). With the rim node shared ("split", the base's condition on the part of its mass under the base)
@@ -141,9 +117,9 @@ def test_smooth_punch_in_the_pile_frame_meets_shield():
     q (a/(a + h/2))² is within 5 % of the split rim's limit (measured 6.75 → 5.98 at 8 cells per radius, +2.5 %;
     6.44 at 16: the base rim converges from above)."""
     n = 8
-    split = _punch(n, "split")
+    split = _punch(n, "split", frame="pile")
     assert split == pytest.approx(SHIELD_SMOOTH, rel=0.05)
-    assert _punch(n, "base") / (1.0 + 0.5 / n) ** 2 == pytest.approx(split, rel=0.05)
+    assert _punch(n, "base", frame="pile") / (1.0 + 0.5 / n) ** 2 == pytest.approx(split, rel=0.05)
 
 
 def test_pile_frame_through_a_scenario_reports_laboratory_depths(tmp_path):
