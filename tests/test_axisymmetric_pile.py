@@ -112,10 +112,10 @@ def test_jacking_conserves_mass_and_keeps_the_soil_out_of_the_pile():
     assert c.qb() > 0.0 and c.shaft_force[1] > 0.0
 
 
-def _punch(n, rim, base="band", frame="laboratory"):
+def _punch(n, rim, base="band", frame="laboratory", curve=False):
     """Smooth rigid punch (the pile's base, a = 1 m, from the surface) on weightless Tresca soil, remap on:
     mean q/c_u over 4–8 % D of penetration (the run goes to 8.5 %: the last step decelerates); ``frame``
-    "pile": the grid moves with the base (tests/test_pile_frame.py)."""
+    "pile": the grid moves with the base (tests/test_pile_frame.py); ``curve``: also the whole curve (s/D, q/c_u)."""
     a, cu = 1.0, 10e3
     h = a / n
     void = 3 * h + (0.2 * a if frame == "pile" else 0.0)  # (the surface rises through the void by 0.17 a)
@@ -139,7 +139,7 @@ def _punch(n, rim, base="band", frame="laboratory"):
     sel = (s >= 0.04) & (s <= 0.08)
     assert abs(f.mass_error()) < 1e-12
     assert c.soil_inside() < (0.01 if base == "band" else 0.02) * c.pile_volume()
-    return float(q[sel].mean())
+    return (float(q[sel].mean()), s, q) if curve else float(q[sel].mean())
 
 
 def test_smooth_punch_on_tresca_soil_with_the_remap():

@@ -637,7 +637,7 @@ class AxisymmetricPileContact:
         scalars += [self._pile_motion, self._z_remap, self.soil_work]
         scalars += [self.friction_work, self.worst_friction_excess, self.clamped_motion, self.contact_nodes]
         f = self.field  # the pile's frame (its inflow reference is rebuilt with the model)
-        scalars += [f.frame_offset, f.frame_velocity, f.inflow_mass]
+        scalars += [f.frame_offset, f.frame_velocity, f.inflow_mass, f.refill_offset]
         return {
             "scalars": np.array(scalars, dtype=float),
             "base_force": self.base_force.copy(),
@@ -660,7 +660,7 @@ class AxisymmetricPileContact:
         self.contact_nodes = int(sc[9])
         if len(sc) > 10:  # (checkpoints before the pile's frame: a fixed grid)
             f = self.field
-            f.frame_offset, f.frame_velocity, f.inflow_mass = sc[10:13]
+            f.frame_offset, f.frame_velocity, f.inflow_mass, f.refill_offset = sc[10:14]
         for name in ("base_force", "shaft_force", "shaft_normal", "shaft_friction"):
             getattr(self, name)[...] = arrays[name]
 

@@ -136,6 +136,8 @@ class AxisymmetricField(FieldBalances):
         self.frame_offset = 0.0
         #: soil that entered through the bottom of a moving grid (kg/rad, scaled by S)
         self.inflow_mass = 0.0
+        #: the grid's offset at the last refill of the bottom row (m)
+        self.refill_offset = 0.0
         self._inflow = None
 
     # --- initial state ------------------------------------------------------------------------------------------
@@ -310,10 +312,12 @@ class AxisymmetricField(FieldBalances):
         """Let the grid move vertically with ``frame_velocity`` (the pile's frame, set every step by the
         contact): the remap advects with the soil's velocity relative to the grid, v − w, and the soil enters
         through the bottom as the grid descends. The bottom node row keeps the laboratory's fixed base
-        (v = 0): it stands for the undisturbed far field. After every remap the bottom cell row is refilled
-        with the geostatic state it had at the start, its stress moved along the initial vertical gradient
-        to the row's present depth (exact in a uniform layer), so the soil flowing in is undisturbed; the
-        mass it brings in is counted in ``inflow_mass``. Call after the geostatic state is set."""
+        (v = 0): it stands for the far field, at rest, and carries the pile's load. After every remap the
+        bottom cell row is refilled with the soil volume, mass and state (void ratio, intergranular strain)
+        it had at the start, and its stress is moved along the initial vertical gradient by the distance the
+        grid moved (exact for the geostatic part in a uniform layer; the part the load added is kept), so the
+        soil flowing in is undisturbed; the mass it brings in is counted in ``inflow_mass``. Call after the
+        geostatic state is set."""
         zc = self.grid.zc
         self._inflow = {
             "Vs": self.Vs[:, 0].copy(),
@@ -322,6 +326,7 @@ class AxisymmetricField(FieldBalances):
             "stress": self.stress[:, 0].copy(),
             "gradient": (self.stress[:, 1] - self.stress[:, 0]) / (zc[1] - zc[0]),
         }
+        self.refill_offset = self.frame_offset
 
     def _refill_bottom(self) -> None:
         ref = self._inflow
@@ -329,7 +334,12 @@ class AxisymmetricField(FieldBalances):
         self.Vs[:, 0] = ref["Vs"]
         self.mass[:, 0] = ref["mass"]
         self.state[:, 0] = ref["state"]
-        self.stress[:, 0] = ref["stress"] + self.frame_offset * ref["gradient"]
+        # the row keeps the stress it carries (the pile's load goes down to the fixed bottom nodes through it:
+        # resetting it to the geostatic stress would make the bottom a constant-pressure outlet through which
+        # the loaded soil drains), moved down the geostatic gradient as far as the grid moved since the last
+        # refill
+        self.stress[:, 0] += (self.frame_offset - self.refill_offset) * ref["gradient"]
+        self.refill_offset = self.frame_offset
         self.inflow_mass += float(self.mass[:, 0].sum()) - before
         node_mass_rz(self.mass, self.nmass)
 
