@@ -78,7 +78,10 @@ def run(
         radius=container_radius, soil_depth=container_depth, void_height=void, fine_size=h,
         fine_radius=4.0 * RADIUS, fine_depth=fine_depth, growth=1.15, max_size=0.5,
     )  # fmt: skip
-    settings = solver_settings(sc, **({} if safety_factor is None else {"safety_factor": safety_factor}))
+    over = {} if safety_factor is None else {"safety_factor": safety_factor}
+    if frame == "pile":  # (as a scenario in the pile's frame: remap after every step)
+        over["remap_courant"] = 0.0
+    settings = solver_settings(sc, **over)
     f = AxisymmetricField(g, mat, scaling=scaling, settings=settings)
     f.fill_below(0.0)
     layers = [(layer.top, sc.soil.void_ratio_of(layer, mat)) for layer in sc.soil.layers]

@@ -38,7 +38,8 @@ def _field(n=2, void=0.7, scaling=10.0, fine_depth=1.0, settings=None):
     h = A / n
     g = AxisymmetricGrid.graded(radius=2.4, soil_depth=2.5, void_height=void, fine_size=h, fine_radius=1.2,
                                 fine_depth=fine_depth, growth=1.3, max_size=0.4)  # fmt: skip
-    f = AxisymmetricField(g, SAND, scaling=scaling, settings=settings or SolverSettings())
+    # (remap after every step, as a scenario in the pile's frame does)
+    f = AxisymmetricField(g, SAND, scaling=scaling, settings=settings or SolverSettings(remap_courant=0.0))
     f.fill_below(0.0)
     f.geostatic([(0.0, E0)], k0=0.5)
     return f
@@ -51,7 +52,7 @@ def test_a_soil_column_that_the_grid_slides_through_stays_at_rest():
     stress at its laboratory depth (measured 0.11 %: about 40 Pa everywhere, the weight of the surface cell's
     first-order transport), e unchanged (within 1e-3); and the mass that flowed in equals ρ_d × the layer slid over (per radian
     R²/2 × 0.6 m), with the balance closed to round-off."""
-    f = _field(void=1.0, settings=SolverSettings(remap_courant=0.0))  # (the inflow is counted at each remap)
+    f = _field(void=1.0)
     s0 = f.stress[..., 2].copy()
     f.move_with()
     f.frame_velocity = w = -0.5
@@ -96,25 +97,30 @@ def _curve(rows, depths):
 
 
 def test_mgs_holds_in_the_moving_frame():
-    """S = 1 at 0.5 m/s and S = 10 at 0.5/√10 m/s are the same problem (ρ_S v² and g ρ_S equal): q_b(z) within
-    1 % over 0.2–0.5 m (the grid's motion, the inflow and the contact add no rate of their own; measured
-    ≤ 0.1 %); the base on its node row at every step, friction ≤ μ × normal at every node and step, no soil
+    """S = 1 at 0.5 m/s and S = 10 at 0.5/√10 m/s are the same problem (ρ_S v² and g ρ_S equal): the same q_b
+    step by step to round-off, and q_b(z) within 3 % over 0.2–0.5 m (the grid's motion, the inflow and the
+    contact add no rate of their own); the base on its node row at every step, friction ≤ μ × normal at every node and step, no soil
     in the pile, mass conserved with the inflow counted."""
     depths = np.arange(0.2, 0.51, 0.1)
     f, c, r1 = _jack(scaling=1.0, velocity=0.5)
     _, _, r10 = _jack(scaling=10.0, velocity=0.5 / math.sqrt(10.0))
-    np.testing.assert_allclose(_curve(r10, depths), _curve(r1, depths), rtol=0.01)
+    # the two runs are the same to round-off step by step (measured: to 1e-9 for the first 560 steps, 0.11 m),
+    # until round-off grows in the plastic flow; the curves stay within 3 % (measured 1.6 %)
+    assert len(r1) == len(r10)
+    np.testing.assert_allclose(r10[:500, 1], r1[:500, 1], rtol=1e-9, atol=1e-6)
+    np.testing.assert_allclose(_curve(r10, depths), _curve(r1, depths), rtol=0.03)
     assert c.worst_friction_excess < 1e-9
     assert c.soil_inside() < 1e-6 * c.pile_volume()
     assert abs(f.mass_error()) < 1e-12
-    # the soil that flowed in is the layer the grid slid over (measured 0.16 % short: the loaded soil's
+    # the soil that flowed in is the layer the grid slid over (measured 0.04 % short: the loaded soil's
     # compression), and the pile's load goes down to the fixed bottom: its reaction is the soil's weight plus
-    # the pile's force (measured 0.4 %), not a constant pressure through which loaded soil drains
+    # the pile's force (measured 2.8 %: both at one instant, the waves between them take 10 ms), not a
+    # constant pressure through which the loaded soil drains (which gives the weight alone, 32 % less)
     rho = 2650.0 / (1.0 + E0)
     assert f.inflow_mass == pytest.approx(rho * 0.5 * f.grid.r[-1] ** 2 * -f.frame_offset, rel=5e-3)
     weight = f.mass.sum() * f.gravity
     load = (c.base_force[1] + c.shaft_force[1]) / (2.0 * math.pi)
-    assert f.reaction[:, 0, 1].sum() == pytest.approx(weight + load, rel=0.02)
+    assert f.reaction[:, 0, 1].sum() == pytest.approx(weight + load, rel=0.05)
     assert load > 0.3 * weight
 
 
@@ -123,10 +129,10 @@ def test_smooth_punch_in_the_pile_frame_brackets_shield():
     below it). A smooth punch on weightless Tresca soil, 8 cells per radius, over 4–8 % D of penetration:
 
     * the "split" rim (the base's condition on the part of the corner node's mass under the base) gives
-      6.01 c_u and the "base" rim, which acts with the radius a + h/2, 6.93 c_u: scaled by (a/(a + h/2))² it is
+      6.03 c_u and the "base" rim, which acts with the radius a + h/2, 6.93 c_u: scaled by (a/(a + h/2))² it is
       6.14, within 5 % of "split" (2 %); at 16 cells per radius 6.23 and 6.62 (they close in from both sides);
     * q rises with the embedment and the heave (0.1–0.2 c_u per 1 % D); extrapolated linearly from 4–7 % D back
-      to the surface, "split" gives 5.31 and "base" 5.88 c_u: they bracket Shield's 5.69 c_u for a punch on the
+      to the surface, "split" gives 5.29 and "base" 5.89 c_u: they bracket Shield's 5.69 c_u for a punch on the
       surface (at 16 cells per radius 5.54 and 6.10);
     * the mean over 4–8 % D is between Shield and Shield + 25 %."""
     n = 8
@@ -197,3 +203,33 @@ def test_rim_treatment_is_a_scenario_key_of_the_axisymmetric_mode():
     with pytest.raises(ScenarioError) as err:
         scenario_from_dict(d)
     assert '[contact].rim = "split": an option of symmetry = "axisymmetric"' in str(err.value)
+
+
+def test_slow_grid_motion_leaves_a_ratcheting_sand_dense_with_the_pile_frames_remap():
+    """The pile's frame remaps after every step unless ``remap_courant`` is given: the whole soil flows through
+    the grid, and a deferred remap's disturbance is a fixed one per remap, however slow the motion. The test: a
+    column of the hypoplastic sand without intergranular strain (no elastic range: it compacts under any
+    shaking) slid through at 0.05 m/s for 0.4 m keeps its void ratio (mean within 2e-4, measured 4e-5; every
+    cell within 1e-3, measured 5e-4). With the deferred remap (0.02) it compacts: mean 8e-4, 2.6e-3 at most."""
+    from geocel.benchmark.presets import preset_scenario
+
+    d = scenario_dict(frame="pile", void_height=0.25)
+    assert scenario_from_dict(d).solver.remap_courant == 0.0
+    d["solver"] = {"remap_courant": 0.05}
+    assert scenario_from_dict(d).solver.remap_courant == 0.05  # (an explicit value is kept)
+
+    sc = preset_scenario("deeks-white")
+    sand = sc.soil.material.model_copy(update={"intergranular_strain": False})
+    e0 = sc.soil.void_ratio_of(sc.soil.layers[0], sand)
+    g = AxisymmetricGrid.graded(radius=2.0, soil_depth=3.0, void_height=0.8, fine_size=0.2, fine_radius=1.0,
+                                fine_depth=1.0, growth=1.3, max_size=0.6)  # fmt: skip
+    f = AxisymmetricField(g, sand, scaling=10.0, settings=SolverSettings(remap_courant=0.0))
+    f.fill_below(0.0)
+    f.geostatic([(0.0, e0)], k0=0.5)
+    f.move_with()
+    f.frame_velocity = -0.05
+    while f.frame_offset > -0.4:
+        f.step()
+    e = f.state[..., 0][f.Vs > 0.99 * f.volume]
+    assert abs(e.mean() - e0) < 2e-4
+    assert np.abs(e - e0).max() < 1e-3

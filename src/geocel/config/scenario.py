@@ -490,7 +490,7 @@ class Solver(_Table):
         le=0.25,
         description="defer the remap until a soil node has moved this fraction of its smallest adjacent cell "
         "(the Lagrangian displacements accumulate in between, as LS-DYNA's advection cycles); 0: remap after "
-        "every step, as Abaqus/Explicit CEL, -",
+        'every step, as Abaqus/Explicit CEL (the default in the pile\'s frame, [domain] frame = "pile"), -',
     )
     pile_subcycling: bool = Field(
         True,
@@ -534,6 +534,11 @@ class Scenario(_Table):
 
     @model_validator(mode="after")
     def _check(self) -> Scenario:
+        if self.domain.frame == "pile" and "remap_courant" not in self.solver.model_fields_set:
+            # the whole soil flows through a grid that moves with the pile: a deferred remap's disturbance (a
+            # fixed one per remap_courant of a cell, whatever the speed) then shakes all of it, and slow jacking
+            # loses q_b (docs/validation.md, "r–z in the pile's frame"): remap after every step
+            self.solver.remap_courant = 0.0
         depth = self.domain.soil_depth
         for i, layer in enumerate(self.soil.layers):
             if layer.top >= depth:
