@@ -168,11 +168,13 @@ def test_pile_frame_through_a_scenario_reports_laboratory_depths(tmp_path):
     [
         ({"frame": "pile", "symmetry": "quarter"}, 'needs symmetry = "axisymmetric"'),
         ({"frame": "pile", "void_height": 0.02}, "[domain].void_height = 0.02: in the pile's frame"),
+        ({"frame": "pile", "pile": False}, '[domain].frame = "pile": the pile\'s frame needs a [pile]'),
     ],
 )
 def test_bad_pile_frame_input_is_one_clear_line(domain, needle):
+    pile = domain.pop("pile", True)
     with pytest.raises(ScenarioError) as err:
-        scenario_from_dict(scenario_dict(**domain))
+        scenario_from_dict(scenario_dict(pile=pile, **domain))
     assert needle in str(err.value)
 
 

@@ -384,8 +384,8 @@ class Contact(_Table):
         "base",
         description="axisymmetric only: the node under the base's corner takes the base's condition (base: the "
         "base acts half a cell wider, q_b converges from above), the shaft's (shaft: half a cell narrower), or "
-        "the base's on the part of its mass under the base (split: grid-converged q_b from 6–8 cells per radius "
-        "in the pile's frame; docs/numerics.md)",
+        "the base's on the part of its mass under the base (split: a Mohr–Coulomb sand's q_b grid-converged "
+        "in the pile's frame, but a sand that is soft at low stress leaks round the corner; docs/numerics.md)",
     )
 
     def friction_coefficient(self, material: MaterialModel) -> float:
@@ -547,6 +547,8 @@ class Scenario(_Table):
                 )
         if not self.soil.allow_void_ratio_outside_limits:
             self._check_void_ratios()
+        if self.domain.frame == "pile" and self.pile is None:
+            raise _invalid(("domain", "frame"), "pile", "the pile's frame needs a [pile]")
         if self.pile is not None:
             self._check_pile_geometry()
             if self.domain.symmetry == "axisymmetric":

@@ -394,9 +394,8 @@ class AxisymmetricPileContact:
         # base_row() every step: the grid's node elevations as a list (bisect) and the tolerance, once
         self._z_nodes = g.z.tolist()
         self._row_tol = 1e-9 * float(g.hz.min())
-        self._pile_motion = (
-            0.0  # the pile's vertical displacement relative to the grid since the last remap, m
-        )
+        # the pile's vertical displacement relative to the grid since the last remap, m
+        self._pile_motion = 0.0
         self._z_remap = s.z_apex - field.frame_offset  # the base's elevation in the grid at the last remap, m
         self._z_frame: float | None = None  # the base's elevation in a grid that moves with it (follow_pile)
         #: forces of the last step on the whole pile (N, × 2π): base (r, z) and shaft (normal, z)

@@ -323,7 +323,6 @@ class AxisymmetricField(FieldBalances):
             "Vs": self.Vs[:, 0].copy(),
             "mass": self.mass[:, 0].copy(),
             "state": self.state[:, 0].copy(),
-            "stress": self.stress[:, 0].copy(),
             "gradient": (self.stress[:, 1] - self.stress[:, 0]) / (zc[1] - zc[0]),
         }
         self.refill_offset = self.frame_offset
