@@ -340,7 +340,16 @@ class AxisymmetricField(FieldBalances):
         self.stress[:, 0] += (self.frame_offset - self.refill_offset) * ref["gradient"]
         self.refill_offset = self.frame_offset
         self.inflow_mass += float(self.mass[:, 0].sum()) - before
-        node_mass_rz(self.mass, self.nmass)
+        # the lumped masses of the two node rows around the refilled cells (node_mass_rz, on those rows only:
+        # this runs after every remap)
+        below = np.zeros(self.nmass.shape[0])
+        below[:-1] += self.mass[:, 0]
+        below[1:] += self.mass[:, 0]
+        above = np.zeros_like(below)
+        above[:-1] += self.mass[:, 1]
+        above[1:] += self.mass[:, 1]
+        self.nmass[:, 0] = 0.25 * below
+        self.nmass[:, 1] = 0.25 * (below + above)
 
     def mass_error(self) -> float:
         """Relative change of soil mass, counting mass that left through the top as kept and mass that came
