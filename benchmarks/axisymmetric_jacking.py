@@ -55,7 +55,7 @@ def run(
     verbose: bool = True,
     raw: bool = False,
     profile: bool = False,
-    frame: str = "lab",
+    frame: str = "laboratory",
 ) -> dict:
     sc = preset_scenario("deeks-white")
     if soil == "mohr-coulomb":  # a soil without rate or density effects, for checks of the contact and grid
@@ -159,7 +159,7 @@ def main() -> None:
     ap.add_argument("--safety-factor", type=float, default=None, help="Δt = this × the stable step (0.9)")
     ap.add_argument("--profile", action="store_true", help="print where the wall time went")
     ap.add_argument(
-        "--frame", default="lab", choices=("lab", "pile"),
+        "--frame", default="laboratory", choices=("laboratory", "pile"),
         help="a grid fixed in the laboratory, or one that moves with the pile's base (soil flows in at the bottom)",
     )  # fmt: skip
     ap.add_argument(

@@ -117,7 +117,7 @@ def run_rz(
     out: Path,
     rim: str = "base",
     soil: str = "hypoplastic",
-    frame: str = "lab",
+    frame: str = "laboratory",
 ) -> dict:
     sys.path.insert(0, str(Path(__file__).parent))
     from axisymmetric_jacking import run
@@ -250,7 +250,7 @@ def main() -> None:
         help="r–z only",
     )
     ap.add_argument(
-        "--frame", default="lab", choices=("lab", "pile"),
+        "--frame", default="laboratory", choices=("laboratory", "pile"),
         help="r–z only: a grid fixed in the laboratory or moving with the pile's base (axisymmetric_jacking.py)",
     )  # fmt: skip
     ap.add_argument("--jobs", type=int, default=1, help="runs at a time")
@@ -262,7 +262,7 @@ def main() -> None:
     if any(not (n > 0 and math.isfinite(n)) for n in a.cells_per_radius):
         ap.error("cells per radius must be positive numbers")
     a.out.mkdir(parents=True, exist_ok=True)
-    if a.mode == "3d" and (a.rim != "base" or a.soil != "hypoplastic" or a.frame != "lab"):
+    if a.mode == "3d" and (a.rim != "base" or a.soil != "hypoplastic" or a.frame != "laboratory"):
         ap.error("--rim, --soil and --frame are options of the axisymmetric mode")
     options = {"rim": a.rim, "soil": a.soil} | ({"frame": a.frame} if a.mode == "axisymmetric" else {})
     tasks = [
