@@ -9,7 +9,7 @@ the node line r = a. Contact: :mod:`geocel.contact.axisym`.
 
     NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_jacking.py --cells-per-radius 6 [--penetration 1.2]
         [--scaling 10] [--velocity 0.5] [--base band|edge] [--rim base|split|shaft] [--profile]
-        [--soil hypoplastic|hypoplastic-no-igs|mohr-coulomb]
+        [--soil hypoplastic|hypoplastic-no-igs|mohr-coulomb] [--frame laboratory|pile] [--nonlocal-length l]
 
 Prints, at every 0.1 m of base depth, q_b (MPa) and q_s (kPa), each the mean over the steps within ±0.025 m
 of that depth (the base crosses a node row every a/n: the instantaneous values ripple with that period),
@@ -56,6 +56,7 @@ def run(
     raw: bool = False,
     profile: bool = False,
     frame: str = "laboratory",
+    nonlocal_length: float = 0.0,
 ) -> dict:
     sc = preset_scenario("deeks-white")
     if soil == "mohr-coulomb":  # a soil without rate or density effects, for checks of the contact and grid
@@ -68,6 +69,11 @@ def run(
         sc = sc.model_copy(update={"soil": sc.soil.model_copy(update={"material": plain})})
     elif soil != "hypoplastic":
         raise ValueError(f"soil = {soil!r}: hypoplastic, hypoplastic-no-igs or mohr-coulomb")
+    if nonlocal_length > 0.0:  # the hypoplastic sand with an internal length (docs/numerics.md)
+        if soil == "mohr-coulomb":
+            raise ValueError("--nonlocal-length is a parameter of the hypoplastic sand")
+        nl = sc.soil.material.model_copy(update={"nonlocal_length": nonlocal_length})
+        sc = sc.model_copy(update={"soil": sc.soil.model_copy(update={"material": nl})})
     mat = sc.soil.material
     h = RADIUS / cells_per_radius
     if frame == "pile":  # the grid moves with the base: fine cells 1.5 m below it and along the shaft
@@ -102,7 +108,8 @@ def run(
     if verbose:
         print(g.describe())
         print(
-            f"S = {scaling:g}, v = {velocity:g} m/s, μ = {mu:.3f}, base = {base}, rim = {rim}, Δt₀ = {f.dt:.3g} s"
+            f"S = {scaling:g}, v = {velocity:g} m/s, μ = {mu:.3f}, base = {base}, rim = {rim}, Δt₀ = {f.dt:.3g} s, "
+            f"soil {soil}, internal length {nonlocal_length:g} m"
         )
     t0 = time.perf_counter()
     jack(c, penetration, velocity, ramp=0.05, callback=record)
@@ -167,12 +174,16 @@ def main() -> None:
         help="the preset's sand, the same without intergranular strain, or a Mohr–Coulomb sand (E 30 MPa, "
         "ν 0.3, φ 36°, ψ 6°, e0 0.6)",
     )  # fmt: skip
+    ap.add_argument(
+        "--nonlocal-length", type=float, default=0.0,
+        help="internal length l of the hypoplastic sand, m (0: the local model; docs/numerics.md)",
+    )  # fmt: skip
     a = ap.parse_args()
     if not (a.cells_per_radius >= 1 and a.penetration > 0 and math.isfinite(a.penetration)):
         ap.error("cells per radius ≥ 1 and a positive penetration, please")
     run(
         a.cells_per_radius, a.penetration, a.scaling, a.velocity, a.rim, a.base, a.safety_factor,
-        soil=a.soil, profile=a.profile, frame=a.frame,
+        soil=a.soil, profile=a.profile, frame=a.frame, nonlocal_length=a.nonlocal_length,
     )  # fmt: skip
 
 

@@ -6,6 +6,7 @@ between successive ones, and the radial stress in the soil next to the shaft aft
         [--scaling 10] [--velocity 0.5] [--jobs N] [--threads T] [--out runs/mesh_convergence]
     python benchmarks/mesh_convergence.py --mode axisymmetric --rim split --soil hypoplastic-no-igs ...
     python benchmarks/mesh_convergence.py --mode axisymmetric --frame pile ...   (the grid moves with the base)
+    python benchmarks/mesh_convergence.py --mode axisymmetric --nonlocal-length 0.05 ...   (non-local sand)
 
 Both modes use the same problem: the ``deeks-white`` preset's sand (Fraction E, I_D = 0.93, K0 = 0.5,
 μ = tan(2/3 φ_c)), a D = 0.6 m pile with a flat base jacked from the surface, MGS factor S (default 10),
@@ -118,6 +119,7 @@ def run_rz(
     rim: str = "base",
     soil: str = "hypoplastic",
     frame: str = "laboratory",
+    nonlocal_length: float = 0.0,
 ) -> dict:
     sys.path.insert(0, str(Path(__file__).parent))
     from axisymmetric_jacking import run
@@ -131,7 +133,7 @@ def run_rz(
     t0 = time.perf_counter()
     o = run(int(n), penetration, scaling, velocity, container_radius=CONTAINER["radius"],
             container_depth=CONTAINER["soil_depth"], rim=rim, soil=soil, verbose=False, raw=True,
-            frame=frame)  # fmt: skip
+            frame=frame, nonlocal_length=nonlocal_length)  # fmt: skip
     wall = time.perf_counter() - t0
     f = o["field"]
     g = f.grid
@@ -141,7 +143,7 @@ def run_rz(
     phi = f.Vs / f.volume
     prof = _radial_profile(zc, rc, f.stress[..., 0], np.where(phi > 0.99, f.Vs, 0.0), h, penetration)
     return {
-        "name": f"rz-{soil}-{rim}-{frame}-n{n:g}", "mode": "axisymmetric", "n": n, "h": h, "cells": o["cells"],
+        "name": f"rz-{soil}-{rim}-{frame}-l{nonlocal_length:g}-n{n:g}", "mode": "axisymmetric", "n": n, "h": h, "cells": o["cells"],
         "steps": o["steps"], "wall_s": wall, "status": "finished", "depth": o["depth"], "qb": o["qb"],
         "qs": o["qs"], "profile": prof, "inertia": float("nan"),
     }  # fmt: skip
@@ -253,6 +255,10 @@ def main() -> None:
         "--frame", default="laboratory", choices=("laboratory", "pile"),
         help="r–z only: a grid fixed in the laboratory or moving with the pile's base (axisymmetric_jacking.py)",
     )  # fmt: skip
+    ap.add_argument(
+        "--nonlocal-length", type=float, default=0.0,
+        help="r–z only: internal length l of the hypoplastic sand, m (0: the local model; docs/numerics.md)",
+    )  # fmt: skip
     ap.add_argument("--jobs", type=int, default=1, help="runs at a time")
     ap.add_argument("--threads", type=int, default=1, help="Numba threads per run")
     ap.add_argument("--out", type=Path, default=Path("runs/mesh_convergence"))
@@ -262,9 +268,13 @@ def main() -> None:
     if any(not (n > 0 and math.isfinite(n)) for n in a.cells_per_radius):
         ap.error("cells per radius must be positive numbers")
     a.out.mkdir(parents=True, exist_ok=True)
-    if a.mode == "3d" and (a.rim != "base" or a.soil != "hypoplastic" or a.frame != "laboratory"):
-        ap.error("--rim, --soil and --frame are options of the axisymmetric mode")
-    options = {"rim": a.rim, "soil": a.soil} | ({"frame": a.frame} if a.mode == "axisymmetric" else {})
+    if a.mode == "3d" and (
+        a.rim != "base" or a.soil != "hypoplastic" or a.frame != "laboratory" or a.nonlocal_length != 0.0
+    ):
+        ap.error("--rim, --soil, --frame and --nonlocal-length are options of the axisymmetric mode")
+    options = {"rim": a.rim, "soil": a.soil} | (
+        {"frame": a.frame, "nonlocal_length": a.nonlocal_length} if a.mode == "axisymmetric" else {}
+    )
     tasks = [
         (a.mode, n, a.penetration, a.kind, a.scaling, a.velocity, a.out, options) for n in a.cells_per_radius
     ]

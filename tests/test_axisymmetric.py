@@ -37,7 +37,7 @@ def _update(g, mat, Vs, mass, c, v, dt, kappa_s=1.0, b1=0.0, b2=0.0, kappa=0.0):
     return update_cells_rz(
         model_tag(mat.model_id), mat.to_array(), g.rc, g.hr, g.hz, Vs, mass, c["stress"], c["state"], v,
         c["q"], c["hg"], c["modulus"], c["flags"], dt, b1, b2, kappa, kappa_s, 1, *mat.strength_line(),
-        mat.substep_strain(0.1),
+        mat.substep_strain(0.1), np.ones(Vs.shape), False,
     )  # fmt: skip
 
 

@@ -270,6 +270,8 @@ def test_rigid_rotation_keeps_the_stress_invariants():
             0.0,
             1e300,
             np.inf,
+            np.ones(Vs.shape),
+            False,
         )
     np.testing.assert_allclose(state[..., 1:13], 0.0, atol=1e-3)  # Pa: a linear field has no hourglass part
     p, qq = invariants_pq(stress.reshape(-1, 6))
@@ -436,7 +438,7 @@ def _hourglass_force(amp, nsteps, rho, mode=0, direction=0, dt=1e-4, shape=(0.2,
     for _ in range(nsteps):
         update_cells(
             model_tag(mat.model_id), mat.to_array(), grid.hx, grid.hy, grid.hz, grid.active2d, Vs, mass, stress, state,
-            v, q, hg, modulus, flags, dt, 0.0, 0.0, 0.0, 1.0, 1, 0.0, 1e300, np.inf,
+            v, q, hg, modulus, flags, dt, 0.0, 0.0, 0.0, 1.0, 1, 0.0, 1e300, np.inf, np.ones(Vs.shape), False,
         )  # fmt: skip
     np.testing.assert_allclose(stress[..., :3], -100e3)  # no strain from a pure hourglass field
     return hg[0, 0, 0, mode, direction] * mass[0, 0, 0], G

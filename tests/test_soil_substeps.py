@@ -55,6 +55,7 @@ def _field_path(mat: Hypoplastic, steps: int, max_sub: float) -> np.ndarray:
             update_cells(
                 model_tag(HYPOPLASTIC), prm, grid.hx, grid.hy, grid.hz, grid.active2d, vol, mass, stress,
                 state, v, q, hg, modulus, flags, 1.0, 0.0, 0.0, 0.0, 1.0, hp.N_STATE, 0.0, 0.0, max_sub,
+                np.ones(vol.shape), False,
             )  # fmt: skip
     return stress[0, 0, 0].copy()
 

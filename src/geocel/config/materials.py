@@ -148,6 +148,13 @@ class Hypoplastic(_Material):
     chi: float = Field(5.74, gt=0.0, description="interpolation exponent χ, -")
     intergranular_strain: bool = Field(True, description="use the intergranular-strain extension")
     p_min: float = Field(100.0, gt=0.0, le=1.0e5, description="low-stress floor p_min, Pa (see docs)")
+    nonlocal_length: float = Field(
+        0.0,
+        ge=0.0,
+        le=10.0,
+        description="internal length l of the non-local nonlinear term N‖D‖* (Gaussian weight exp(−(d/l)²), at the "
+        "scale of the model; 0 is the local model), m (docs/numerics.md, 'Non-local hypoplasticity')",
+    )
 
     model_id: ClassVar[int] = HYPOPLASTIC
     state_names: ClassVar[tuple[str, ...]] = _hp.STATE_NAMES

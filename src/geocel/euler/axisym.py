@@ -32,6 +32,10 @@ The same central-difference step as :mod:`geocel.euler.lagrange`, with 4-node ce
   order (h_r/r)²). The two generalised stresses (per unit soil volume, Pa) are kept after the material
   state, so the remap carries them. A small viscous part κ ρ c r_c √(h_r h_z)/4 per unit mode velocity.
 * Bulk viscosity on tr D = D_rr + D_θθ + D_zz, as in 3D.
+* **Non-local factor** (:func:`nonlocal_factor_rz`, a soil model with an internal length l): the ratio
+  ‖D‖*/‖D‖ of the mean of the stretching's norm over the soil around the cell (:mod:`.nonlocal_mean`, the
+  3D Gaussian weight integrated round the rings) to the cell's own; the soil model scales its nonlinear
+  term by it (docs/numerics.md, "Non-local hypoplasticity").
 """
 
 from __future__ import annotations
@@ -43,6 +47,7 @@ from ..materials.flags import SUBSTEP_LIMIT
 from ..materials.kernels import cell_update
 from ..materials.tensor import KERNEL_OPTIONS
 from .lagrange import G_FROM_M, MAX_CELL_SUBSTEPS, PHI_MIN, subpoint_limit, substeps
+from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
 
 #: components of the hourglass control kept after the material state (generalised stresses of the r and z
 #: modes, per unit soil volume, Pa)
@@ -262,6 +267,60 @@ def velocity_gradient_rz(v, i, k, hr, hz, rc):
     )  # fmt: skip
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def _soil_volume(Vs, rc, hr, hz, i, k):
+    """Vs of a soil cell, 0 for a void one (below :data:`PHI_MIN`)."""
+    vs = Vs[i, k]
+    return vs if vs >= PHI_MIN * rc[i] * hr[i] * hz[k] else 0.0
+
+
+def nonlocal_weights_rz(rc, zc, length: float) -> tuple:
+    """The per-axis weights of :func:`geocel.euler.nonlocal_mean.nonlocal_mean` for the r–z grid as a 3D array
+    (n_r, 1, n_z): the ring weight along r, none along θ, the Gaussian along z."""
+    return axis_weights(rc, length, ring=True), None, axis_weights(zc, length)
+
+
+def nonlocal_mean_rz(rc, hr, hz, Vs, weights, x, scratch, out) -> None:
+    """The non-local mean x* of the cell values ``x`` over the soil (:mod:`geocel.euler.nonlocal_mean`; 0 in void
+    cells); ``weights`` from :func:`nonlocal_weights_rz`, ``scratch`` five arrays of the cells' shape."""
+    Vw = scratch[0]
+    _soil_volumes_rz(Vs, rc, hr, hz, Vw)
+    shape3 = (Vs.shape[0], 1, Vs.shape[1])
+    nonlocal_mean(
+        Vw.reshape(shape3), x.reshape(shape3), weights, [a.reshape(shape3) for a in scratch[1:]], out.reshape(shape3)
+    )
+
+
+def nonlocal_factor_rz(v, rc, hr, hz, Vs, weights, nd, scratch, out) -> None:
+    """``out[i, k]`` = ‖D‖*/‖D‖ of every soil cell for the node velocities v (1 in void cells and where the
+    soil is at rest). ``nd`` ends holding ‖D‖ (1/s); ``scratch``: as :func:`nonlocal_mean_rz`."""
+    _stretching_norms_rz(v, rc, hr, hz, Vs, nd)
+    nonlocal_mean_rz(rc, hr, hz, Vs, weights, nd, scratch, out)
+    factor_from_mean(nd, out)
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def _soil_volumes_rz(Vs, rc, hr, hz, out):
+    ncr, ncz = Vs.shape
+    for i in prange(ncr):
+        for k in range(ncz):
+            out[i, k] = _soil_volume(Vs, rc, hr, hz, i, k)
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def _stretching_norms_rz(v, rc, hr, hz, Vs, nd):
+    """‖D‖ (1/s) of every soil cell, 0 in void cells."""
+    ncr, ncz = Vs.shape
+    for i in prange(ncr):
+        for k in range(ncz):
+            if _soil_volume(Vs, rc, hr, hz, i, k) == 0.0:
+                nd[i, k] = 0.0
+                continue
+            L, _ = velocity_gradient_rz(v, i, k, hr[i], hz[k], rc[i])
+            drz = 0.5 * (L[1] + L[2])
+            nd[i, k] = np.sqrt(L[0] * L[0] + L[4] * L[4] + L[3] * L[3] + 2.0 * drz * drz)
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
 def update_cells_rz(
     tag,
@@ -287,12 +346,14 @@ def update_cells_rz(
     mf,
     cf,
     max_sub,
+    nlf,
+    nonlocal_,
     nchunk=64,
 ):
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (module
     docstring: D = (D_rr, D_θθ, D_zz, 0, D_rz, 0)Δt, W_13 Δt; the model given by ``tag``; in
     :func:`~geocel.euler.lagrange.substeps` equal explicit substeps of at most the strain ``max_sub``, as in
-    3D), the bulk-viscosity
+    3D; with ``nonlocal_`` the non-local factors ``nlf`` of :func:`nonlocal_factor_rz`), the bulk-viscosity
     pressure q and the hourglass resistance for the next nodal pass (``hg``: per unit cell mass, so a cell
     the remap has nearly emptied pushes proportionally less). Cells below :data:`PHI_MIN` are set
     stress-free. ``state[..., hoff:hoff + 2]`` holds the hourglass generalised stresses (Pa). ``nchunk``: the
@@ -339,7 +400,8 @@ def update_cells_rz(
                 D = (L[0] * dt, L[4] * dt, L[3] * dt, 0.0, 0.5 * (L[1] + L[2]) * dt, 0.0)
                 W = (0.0, 0.5 * (L[1] - L[2]) * dt, 0.0)
                 nsub = substeps(D, max_sub)
-                M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, dbuf, wbuf)
+                nl = nlf[i, k] if nonlocal_ else 1.0
+                M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, nl, dbuf, wbuf)
                 if nsub == MAX_CELL_SUBSTEPS:
                     f |= SUBSTEP_LIMIT
                 flags[i, k] = f

@@ -24,6 +24,7 @@ from numba import njit, prange
 from ..materials.flags import SUBSTEP_LIMIT
 from ..materials.kernels import cell_update
 from ..materials.tensor import KERNEL_OPTIONS
+from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
 
 #: a cell whose soil volume fraction is below this carries no stress (void)
 PHI_MIN = 1.0e-3
@@ -338,9 +339,12 @@ def update_cells(
     mf,
     cf,
     max_sub,
+    nlf,
+    nonlocal_,
 ):
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (the model
-    given by ``tag``, :func:`geocel.materials.kernels.model_tag`).
+    given by ``tag``, :func:`geocel.materials.kernels.model_tag`; with ``nonlocal_`` the non-local factors
+    ``nlf`` of :func:`nonlocal_factor`).
 
     Also computes the bulk-viscosity pressure q and hourglass forces for the next nodal pass, and returns
     (stable Δt of the cells, index of the cell governing Δt). Cells below :data:`PHI_MIN` are set
@@ -402,7 +406,7 @@ def update_cells(
                     w13 = 0.5 * (L[2] - L[6]) * dt
                     w23 = 0.5 * (L[5] - L[7]) * dt
                     nsub = substeps(D, max_sub)
-                    M, f = cell_update(tag, prm, s2, st2, c, D, (w12, w13, w23), nsub, dbuf, wbuf)
+                    M, f = cell_update(tag, prm, s2, st2, c, D, (w12, w13, w23), nsub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
                     if nsub == MAX_CELL_SUBSTEPS:
                         f |= SUBSTEP_LIMIT
                     flags[i, j, k] = f
@@ -454,3 +458,45 @@ def update_cells(
             dt_min = dts[ch]
             arg = args[ch]
     return dt_min, arg
+
+
+# --- non-local soil model (internal length) ------------------------------------------------------------------
+def nonlocal_weights(grid, length: float) -> tuple:
+    """The per-axis weights of :func:`geocel.euler.nonlocal_mean.nonlocal_mean` for a box grid: the Gaussian
+    along x, y and z, with the mirror images across the symmetry planes x = 0 (quarter) and y = 0 (quarter,
+    half), so that a part model's mean is the full body's."""
+    sym = grid.symmetry
+    return (
+        axis_weights(grid.xc, length, mirror=sym == "quarter"),
+        axis_weights(grid.yc, length, mirror=sym in ("quarter", "half")),
+        axis_weights(grid.zc, length),
+    )
+
+
+def nonlocal_factor(v, hx, hy, hz, active, Vs, weights, nd, scratch, out) -> None:
+    """``out[i, j, k]`` = ‖D‖*/‖D‖ of every soil cell for the node velocities v (1 in void cells and where the
+    soil is at rest; :mod:`geocel.euler.nonlocal_mean`). ``nd`` ends holding ‖D‖ (1/s); ``scratch``: five
+    arrays of the cells' shape."""
+    Vw = scratch[0]
+    _stretching_norms(v, hx, hy, hz, active, Vs, nd, Vw)
+    nonlocal_mean(Vw, nd, weights, scratch[1:], out)
+    factor_from_mean(nd, out)
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def _stretching_norms(v, hx, hy, hz, active, Vs, nd, Vw):
+    """‖D‖ (1/s) and the soil volume of every cell (0 for void cells and inactive columns)."""
+    nx, ny, nz = Vs.shape
+    for i in prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                nd[i, j, k] = 0.0
+                Vw[i, j, k] = 0.0
+                if not active[i, j] or Vs[i, j, k] < PHI_MIN * hx[i] * hy[j] * hz[k]:
+                    continue
+                L, _ = _velocity_gradient(v, i, j, k, hx[i], hy[j], hz[k])
+                d3 = 0.5 * (L[1] + L[3])
+                d4 = 0.5 * (L[2] + L[6])
+                d5 = 0.5 * (L[5] + L[7])
+                nd[i, j, k] = np.sqrt(L[0] ** 2 + L[4] ** 2 + L[8] ** 2 + 2.0 * (d3 * d3 + d4 * d4 + d5 * d5))
+                Vw[i, j, k] = Vs[i, j, k]

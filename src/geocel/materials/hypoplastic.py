@@ -124,10 +124,12 @@ def _dot6(a0, a1, a2, a3, a4, a5, b0, b1, b2, b3, b4, b5):
 
 
 @njit(**KERNEL_OPTIONS)
-def rate_scalar(prm, T, e, dl, D):
+def rate_scalar(prm, T, e, dl, D, nl):
     """Core of :func:`rate` on 6-tuples (kept in registers: no aliasing through scratch arrays).
 
-    Returns (dT, ddelta, M, flags) with dT, ddelta 6-tuples.
+    ``nl`` multiplies the nonlinear term N‖D‖ (N (δ̂:D) with intergranular strain): the ratio ‖D‖*/‖D‖ of
+    the non-local to the local norm of the stretching (docs/numerics.md, "Non-local hypoplasticity"), 1 for
+    the local model. Returns (dT, ddelta, M, flags) with dT, ddelta 6-tuples.
     """
     flags = 0
     t0, t1, t2, t3, t4, t5 = T
@@ -206,7 +208,7 @@ def rate_scalar(prm, T, e, dl, D):
     lam = cF + ca * g * g
 
     if prm[P_IGS] == 0.0:
-        nD = np.sqrt(_dot6(d0, d1, d2, d3, d4, d5, d0, d1, d2, d3, d4, d5))
+        nD = np.sqrt(_dot6(d0, d1, d2, d3, d4, d5, d0, d1, d2, d3, d4, d5)) * nl
         dT = (l0 + n0 * nD, l1 + n1 * nD, l2 + n2 * nD, l3 + n3 * nD, l4 + n4 * nD, l5 + n5 * nD)
         return dT, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0), lam + normN, flags
 
@@ -241,7 +243,7 @@ def rate_scalar(prm, T, e, dl, D):
         if rho < 1.0:
             rbr = np.exp(prm[P_BETA_R] * lrho)
         c_l = rc * (1.0 - mT) * dd
-        c_n = rc * dd
+        c_n = rc * dd * nl
         dT = (
             fac * l0 + c_l * (cF * u0 + Tu * h0) + c_n * n0,
             fac * l1 + c_l * (cF * u1 + Tu * h1) + c_n * n1,
@@ -281,6 +283,7 @@ def rate(prm, T, e, delta, D, dT, ddelta, w):
         e,
         (delta[0], delta[1], delta[2], delta[3], delta[4], delta[5]),
         (D[0], D[1], D[2], D[3], D[4], D[5]),
+        1.0,
     )
     for i in range(6):
         dT[i] = a[i]
@@ -298,8 +301,9 @@ def volume_ratio(x):
 
 
 @njit(**KERNEL_OPTIONS)
-def euler_tuple(prm, T, e, q, deps, nsub):
-    """nsub equal forward-Euler substeps on register tuples: returns (T, e, δ, M, flags)."""
+def euler_tuple(prm, T, e, q, deps, nsub, nl):
+    """nsub equal forward-Euler substeps on register tuples (``nl``: :func:`rate_scalar`): returns
+    (T, e, δ, M, flags)."""
     pmin = prm[P_PMIN]
     T, flags = floor_tuple(pmin, T)
     inv = 1.0 / nsub
@@ -312,7 +316,7 @@ def euler_tuple(prm, T, e, q, deps, nsub):
         if k > 0:
             T, f = floor_tuple(pmin, T)
             flags |= f
-        dT, dq, M, f = rate_scalar(prm, T, e, q, D)
+        dT, dq, M, f = rate_scalar(prm, T, e, q, D, nl)
         flags |= f
         T = (T[0] + dT[0], T[1] + dT[1], T[2] + dT[2], T[3] + dT[3], T[4] + dT[4], T[5] + dT[5])
         e = (1.0 + e) * vol - 1.0
@@ -343,6 +347,7 @@ def _euler_substeps(prm, T, state, deps, nsub, w):
         (state[1], state[2], state[3], state[4], state[5], state[6]),
         (deps[0], deps[1], deps[2], deps[3], deps[4], deps[5]),
         nsub,
+        1.0,
     )
     for i in range(6):
         T[i] = t[i]
@@ -458,9 +463,10 @@ def stiffness(prm, stress, state, w):
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
-def hypoplastic_cell(prm, stress, state, i, D, w12, w13, w23, nsub):
+def hypoplastic_cell(prm, stress, state, i, D, w12, w13, w23, nsub, nl):
     """Field-solver path of :func:`hypoplastic_update` for row i of the (n, 6) / (n, 7) cell arrays, with
-    the strain increment D as a 6-tuple and the spin increment (W12, W13, W23) (Euler substeps).
+    the strain increment D as a 6-tuple, the spin increment (W12, W13, W23) (Euler substeps) and the
+    non-local factor ``nl`` of :func:`rate_scalar`.
 
     Same arithmetic as the point update, but on register tuples with one load and one store per cell
     (no array views, so no reference counting in the inner loop)."""
@@ -473,10 +479,10 @@ def hypoplastic_cell(prm, stress, state, i, D, w12, w13, w23, nsub):
             q = co_rotate_tuple(q, w12, w13, w23)
     if is_zero(D):
         T, f = floor_tuple(prm[P_PMIN], T)
-        _, _, M, _ = rate_scalar(prm, T, e, q, D)
+        _, _, M, _ = rate_scalar(prm, T, e, q, D, 1.0)
         flags = fl.ZERO_INCREMENT | f
     else:
-        T, e, q, M, flags = euler_tuple(prm, T, e, q, D, nsub)
+        T, e, q, M, flags = euler_tuple(prm, T, e, q, D, nsub, nl)
     for k in range(6):
         stress[i, k] = T[k]
         state[i, k + 1] = q[k]

@@ -43,26 +43,28 @@ def model_tag(model: int) -> np.ndarray:
     return np.zeros(0, dtype=_TAG_DTYPES[model])
 
 
-def cell_update(tag, prm, stress, state, i, D, W, nsub, dbuf, wbuf):
+def cell_update(tag, prm, stress, state, i, D, W, nsub, nl, dbuf, wbuf):
     """Update row i of the (n, 6) stress and (n, k) state arrays of cells with the strain increment D and
     the spin increment W = (W12, W13, W23) (tuples); returns (M, flags). Compiled for the model of ``tag``
-    (:func:`model_tag`); ``dbuf`` (6) and ``wbuf`` (3) are scratch arrays of the calling thread."""
+    (:func:`model_tag`); ``nl`` is the non-local factor of a model with an internal length (hypoplasticity:
+    :func:`~geocel.materials.hypoplastic.rate_scalar`; 1 for the local model, ignored by the others);
+    ``dbuf`` (6) and ``wbuf`` (3) are scratch arrays of the calling thread."""
     raise NotImplementedError("cell_update is only callable from compiled kernels")
 
 
 @overload(cell_update, jit_options=KERNEL_OPTIONS)
-def _cell_update(tag, prm, stress, state, i, D, W, nsub, dbuf, wbuf):
+def _cell_update(tag, prm, stress, state, i, D, W, nsub, nl, dbuf, wbuf):
     if not isinstance(tag, types.Array):
         raise TypeError(f"cell_update: the model is given by model_tag(model), not {tag}")
     if tag.dtype == types.int32:
 
-        def hypoplastic(tag, prm, stress, state, i, D, W, nsub, dbuf, wbuf):
-            return hypoplastic_cell(prm, stress, state, i, D, W[0], W[1], W[2], nsub)
+        def hypoplastic(tag, prm, stress, state, i, D, W, nsub, nl, dbuf, wbuf):
+            return hypoplastic_cell(prm, stress, state, i, D, W[0], W[1], W[2], nsub, nl)
 
         return hypoplastic
     point_update = mc_update if tag.dtype == types.int16 else elastic_update
 
-    def other(tag, prm, stress, state, i, D, W, nsub, dbuf, wbuf):
+    def other(tag, prm, stress, state, i, D, W, nsub, nl, dbuf, wbuf):
         for d in range(6):
             dbuf[d] = D[d]
         for d in range(3):
@@ -100,6 +102,6 @@ def _update_cells(tag, prm, stress, state, deps, dspin, max_substep_strain, modu
                 nsub = max(1, int(np.ceil(norm(deps[i]) / max_substep_strain)))
             D = (deps[i, 0], deps[i, 1], deps[i, 2], deps[i, 3], deps[i, 4], deps[i, 5])
             W = (dspin[i, 0], dspin[i, 1], dspin[i, 2])
-            m, f = cell_update(tag, prm, stress, state, i, D, W, nsub, dbuf, wbuf)
+            m, f = cell_update(tag, prm, stress, state, i, D, W, nsub, 1.0, dbuf, wbuf)
             modulus[i] = m
             flags[i] = f

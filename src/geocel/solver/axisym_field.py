@@ -26,6 +26,8 @@ from ..euler.axisym import (
     advance_nodes_rz,
     characteristic_length_rz,
     node_mass_rz,
+    nonlocal_factor_rz,
+    nonlocal_weights_rz,
     update_cells_rz,
 )
 from ..euler.axisym_remap import remap_rz
@@ -125,6 +127,12 @@ class AxisymmetricField(FieldBalances):
         self.reaction = np.zeros(nshape + (2,))
         self.u_remap = np.zeros(nshape + (2,))
         self._force_factors = np.empty(shape + (FORCE_FACTORS_RZ,))  # scratch of the nodal pass
+        #: the non-local factors ‖D‖*/‖D‖ of the last step (1 for a local soil model) and their scratch
+        self.nonlocal_factor = np.ones(shape)
+        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(6)) if self.nonlocal_length > 0 else ()
+        self._nonlocal_weights = (
+            nonlocal_weights_rz(g.rc, g.zc, self.nonlocal_length) if self.nonlocal_length > 0 else None
+        )
         self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / node_spacing(g.hz))
         self._init_bookkeeping()
         #: contact with a pile (:class:`geocel.contact.axisym.AxisymmetricPileContact`), applied to the trial
@@ -241,12 +249,18 @@ class AxisymmetricField(FieldBalances):
         )  # fmt: skip
         if contact is not None:
             contact.apply(dt)
+        nonlocal_ = self.nonlocal_length > 0.0
+        if nonlocal_:
+            nonlocal_factor_rz(
+                self.v, self.rc, self.hr, self.hz, self.Vs, self._nonlocal_weights, self._nonlocal_scratch[0],
+                self._nonlocal_scratch[1:], self.nonlocal_factor,
+            )  # fmt: skip
         t1 = perf_counter()
         dtc, arg = update_cells_rz(
             self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
             self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength, self._max_substep,
-            get_num_threads(),
+            self.nonlocal_factor, nonlocal_, get_num_threads(),
         )  # fmt: skip
         if not (math.isfinite(ke) and math.isfinite(dEi)):
             raise InstabilityError(

@@ -21,6 +21,8 @@ from ..euler.lagrange import (
     advance_nodes,
     characteristic_length,
     node_mass,
+    nonlocal_factor,
+    nonlocal_weights,
     update_cells,
 )
 from ..euler.remap import remap
@@ -145,6 +147,8 @@ class FieldBalances:
         self.prm = self.material.to_array()
         self.gravity = self.settings.gravity / self.scaling
         self.grain_density = self.material.grain_density * self.scaling
+        #: the soil model's internal length l (m; 0: a local model): docs/numerics.md, "Non-local hypoplasticity"
+        self.nonlocal_length = float(getattr(self.material, "nonlocal_length", 0.0))
 
     def _init_bookkeeping(self) -> None:
         """Clock, step and remap counters, the time step's record, energies, mass accounts and phase timers
@@ -212,6 +216,11 @@ class SoilField(FieldBalances):
         self.modulus = np.zeros(shape)
         self.flags = np.zeros(shape, dtype=np.int64)
         self.fbar = np.zeros(shape)
+        #: the non-local factors ‖D‖*/‖D‖ of the last step (1 for a local soil model) and their scratch
+        self.nonlocal_factor = np.ones(shape)
+        nonlocal_ = self.nonlocal_length > 0.0
+        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(6)) if nonlocal_ else ()
+        self._nonlocal_weights = nonlocal_weights(g, self.nonlocal_length) if nonlocal_ else None
         self.v = np.zeros(nshape + (3,))
         #: node displacements since the last remap (m), when the remap is deferred (``remap_courant`` > 0)
         self.u_remap = np.zeros(nshape + (3,))
@@ -337,6 +346,12 @@ class SoilField(FieldBalances):
         )
         if self.contact is not None:
             self.contact.apply(dt)
+        nonlocal_ = self.nonlocal_length > 0.0
+        if nonlocal_:
+            nonlocal_factor(
+                self.v, self.hx, self.hy, self.hz, self.active2d, self.Vs, self._nonlocal_weights,
+                self._nonlocal_scratch[0], self._nonlocal_scratch[1:], self.nonlocal_factor,
+            )  # fmt: skip
         t1 = time.perf_counter()
         dtc, arg = update_cells(
             self.model_tag,
@@ -362,6 +377,8 @@ class SoilField(FieldBalances):
             self.nstate,
             *self._strength,
             self._max_substep,
+            self.nonlocal_factor,
+            nonlocal_,
         )
         # a NaN anywhere reaches these sums (this step or the next): no extra pass over the arrays
         if not (np.isfinite(ke) and np.isfinite(dEi)):

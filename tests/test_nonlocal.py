@@ -1,0 +1,199 @@
+"""Non-local hypoplasticity (``nonlocal_length``; geocel.euler.nonlocal_mean and its r–z and 3D callers).
+
+Checks against closed forms and invariances: the weighted mean of a constant is that constant (with void,
+partly filled cells and a graded grid), of a step in z the error function, of x = r the exact ring-volume mean
+(r² + l²/2)/r; a uniform stretching has the factor 1 everywhere; a length too small to reach a neighbour gives
+the local model; MGS holds step by step with the non-local term (it is a ratio of norms: rate-free); in 3D the
+quarter and half models' means equal the full body's (mirror images across the symmetry planes)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.special import erfc, i0e, i1e
+
+from geocel.benchmark.presets import preset_scenario
+from geocel.config.scenario import ScenarioError, scenario_from_dict
+from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
+from geocel.euler.axisym import nonlocal_factor_rz, nonlocal_mean_rz, nonlocal_weights_rz
+from geocel.euler.lagrange import nonlocal_factor, nonlocal_weights
+from geocel.euler.nonlocal_mean import i0e as i0e_nl
+from geocel.euler.nonlocal_mean import nonlocal_mean
+from geocel.grid.axisym import AxisymmetricGrid
+from geocel.grid.graded import Grid
+from geocel.solver.axisym_field import AxisymmetricField
+from geocel.solver.backend import build_backend
+from geocel.solver.field import SolverSettings
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+
+def _mean(g, Vs, length, x):
+    out = np.empty(g.shape)
+    w = nonlocal_weights_rz(g.rc, g.zc, length)
+    nonlocal_mean_rz(g.rc, g.hr, g.hz, Vs, w, x, [np.empty(g.shape) for _ in range(5)], out)
+    return out
+
+
+def test_the_mean_of_a_constant_is_the_constant_with_void_and_grading():
+    g = AxisymmetricGrid.graded(radius=2.0, soil_depth=1.5, void_height=0.5, fine_size=0.05, fine_radius=0.6,
+                                fine_depth=0.8, growth=1.2, max_size=0.3)  # fmt: skip
+    Vs = g.cell_volumes() * np.clip((0.13 - g.z[:-1]) / g.hz, 0.0, 1.0)[None, :]  # surface inside a cell row
+    Vs[3:6, -12:] = 0.0  # and a hole of void
+    soil = Vs > 0
+    out = _mean(g, Vs, 0.1, np.where(soil, 2.5, 0.0))
+    np.testing.assert_allclose(out[soil], 2.5, rtol=1e-13)
+    assert np.all(out[~soil] == 0.0)
+
+
+def test_the_mean_of_a_step_is_the_error_function():
+    """x = 1 below z = 0, 0 above: with the weight exp(−(d/l)²) the mean is ½ erfc(z/l) away from the ends
+    (the discrete sum on cells of l/10 is exact to about 1e-4; the cut-off at 3 l costs e⁻⁹)."""
+    length, h = 0.1, 0.01
+    g = AxisymmetricGrid.uniform(40, 160, h, z0=-0.8)
+    Vs = g.cell_volumes()
+    x = np.broadcast_to((g.zc < 0.0)[None, :], g.shape).astype(float)
+    out = _mean(g, Vs, length, x)
+    inner = np.abs(g.zc) < 0.45
+    expected = np.broadcast_to(0.5 * erfc(g.zc[inner] / length), (g.nr, int(inner.sum())))
+    np.testing.assert_allclose(out[:, inner], expected, atol=3e-4)
+
+
+def test_the_mean_of_the_radius_is_the_rice_mean_up_to_the_axis():
+    """x = r (the distance from the axis). The weight exp(−(d/l)²) of a 3D point's neighbours is a normal
+    distribution with σ² = l²/2 per component, so the mean of x round a point at radius ν is the mean of the
+    Rice distribution: σ √(π/2) L½(−ν²/2σ²) (→ ν + l²/4ν far from the axis, 0.886 l on it): a check of the
+    ring weight across the axis and of the volume weighting, independent of the code's own formula."""
+    length, h = 0.1, 0.005
+    g = AxisymmetricGrid.uniform(240, 6, h)
+    out = _mean(g, g.cell_volumes(), length, np.broadcast_to(g.rc[:, None], g.shape).copy())
+    sigma = length / math.sqrt(2.0)
+    y = g.rc**2 / (4.0 * sigma**2)  # −x/2 of the Laguerre function L½(x), x = −ν²/2σ²
+    rice = sigma * math.sqrt(0.5 * math.pi) * ((1.0 + 2.0 * y) * i0e(y) + 2.0 * y * i1e(y))
+    sel = g.rc < 0.8  # (the outer edge is 3 l further out)
+    np.testing.assert_allclose(out[sel, 3], rice[sel], rtol=1e-3)
+    assert out[0, 3] == pytest.approx(0.886 * length, rel=2e-3)
+
+
+def test_a_uniform_stretching_has_the_factor_one():
+    """v = (a r, b z): D = (a, a, b) in every cell, the one on the axis included, so ‖D‖* = ‖D‖."""
+    g = AxisymmetricGrid.graded(radius=1.5, soil_depth=1.0, void_height=0.3, fine_size=0.04, fine_radius=0.4,
+                                fine_depth=0.5, growth=1.25, max_size=0.2)  # fmt: skip
+    Vs = g.cell_volumes() * np.clip((0.05 - g.z[:-1]) / g.hz, 0.0, 1.0)[None, :]
+    R, Z = np.meshgrid(g.r, g.z, indexing="ij")
+    v = np.stack([-0.02 * R, 0.03 * Z], axis=-1)
+    out = np.empty(g.shape)
+    nonlocal_factor_rz(v, g.rc, g.hr, g.hz, Vs, nonlocal_weights_rz(g.rc, g.zc, 0.1), np.empty(g.shape),
+                       [np.empty(g.shape) for _ in range(5)], out)  # fmt: skip
+    np.testing.assert_allclose(out[Vs > 0], 1.0, rtol=1e-12)
+    assert np.all(out[Vs == 0] == 1.0)
+
+
+def _sand(length: float):
+    """The ``deeks-white`` sand with the internal length ``length`` (m)."""
+    sc = preset_scenario("deeks-white")
+    return sc, sc.soil.material.model_copy(update={"nonlocal_length": length})
+
+
+def _jack(length, scaling=10.0, velocity=0.5, depth=0.12, n=2):
+    """The rigid pile jacked into the hypoplastic sand in the pile's frame (a 1.5 m × 1.5 m container, cells a/n
+    near the pile); q_b of every step and the field."""
+    sc, mat = _sand(length)
+    g = AxisymmetricGrid.graded(radius=1.5, soil_depth=1.5, void_height=depth + 0.2, fine_size=0.3 / n,
+                                fine_radius=0.9, fine_depth=0.6, growth=1.3, max_size=0.4)  # fmt: skip
+    f = AxisymmetricField(g, mat, scaling=scaling, settings=SolverSettings(remap_courant=0.0))
+    f.fill_below(0.0)
+    f.geostatic([(0.0, sc.soil.void_ratio_of(sc.soil.layers[0], mat))], k0=0.5)
+    c = AxisymmetricPileContact(f, RigidPileRZ(0.3, 0.0), friction=0.36, base_friction=0.36)
+    c.follow_pile()
+    qb = []
+    jack(c, depth, velocity, ramp=0.05, callback=lambda c: qb.append(c.qb()))
+    return np.array(qb), f
+
+
+def test_a_length_that_reaches_no_neighbour_is_the_local_model():
+    """With 3 l below half a cell no neighbour enters the mean: the factor is 1 (to one rounding of the mean's
+    quotient) and the run is the local one to round-off (to 1e-9 over the first 200 steps; round-off then grows
+    in the plastic flow, measured 4e-5 after 1 162 steps); with l of a cell the non-local term acts."""
+    local, _ = _jack(0.0)
+    tiny, f = _jack(0.01 * 0.15)
+    np.testing.assert_allclose(f.nonlocal_factor, 1.0, rtol=0, atol=4e-16)
+    np.testing.assert_allclose(tiny[:200], local[:200], rtol=1e-9)
+    np.testing.assert_allclose(tiny, local, rtol=1e-3, atol=1e-3 * np.abs(local).max())
+    wide, f = _jack(0.15)
+    m = min(len(wide), len(local))
+    assert np.abs(wide[:m] - local[:m]).max() > 1e-2 * np.abs(local).max()
+    assert f.nonlocal_factor.min() < 0.99 and f.nonlocal_factor.max() > 1.01
+
+
+def test_mgs_holds_step_by_step_with_the_nonlocal_term():
+    """‖D‖*/‖D‖ does not change when all velocities scale: S = 1 at v and S = 10 at v/√10 give the same q_b
+    step by step (to round-off, as for the local model in test_pile_frame)."""
+    q1, _ = _jack(0.15, scaling=1.0, velocity=0.5)
+    q10, _ = _jack(0.15, scaling=10.0, velocity=0.5 / math.sqrt(10.0))
+    assert len(q1) == len(q10)
+    np.testing.assert_allclose(q10, q1, rtol=1e-8, atol=1e-3)
+
+
+def _mean3(g, Vs, length, x):
+    out = np.empty(g.shape)
+    nonlocal_mean(Vs, x, nonlocal_weights(g, length), [np.empty(g.shape) for _ in range(4)], out)
+    return out
+
+
+def test_a_quarter_models_mean_is_the_full_bodys():
+    """The mirror images across the symmetry planes: the quarter (and half) model's mean of a field symmetric in
+    x and y equals the full model's on the same cells, with void and inactive columns."""
+    edges = 0.04 * np.arange(9)
+    z = np.linspace(-0.4, 0.1, 11)
+
+    def field(xc, yc, zc):
+        X, Y, Z = np.meshgrid(xc, yc, zc, indexing="ij")
+        return np.cos(7.0 * X) * (1.0 + Y**2) * np.exp(Z) + 3.0 * np.hypot(X, Y)
+
+    means = {}
+    for sym, x, y in (
+        ("full", np.concatenate([-edges[:0:-1], edges]), np.concatenate([-edges[:0:-1], edges])),
+        ("half", np.concatenate([-edges[:0:-1], edges]), edges),
+        ("quarter", edges, edges),
+    ):
+        g = Grid(x, y, z, symmetry=sym)
+        Vs = g.cell_volumes() * np.clip((0.03 - g.z[:-1]) / np.diff(g.z), 0.0, 1.0)[None, None, :]
+        Vs = np.where(np.hypot(*np.meshgrid(g.xc, g.yc, indexing="ij"))[..., None] > 0.3, 0.0, Vs)
+        out = _mean3(g, Vs, 0.05, field(g.xc, g.yc, g.zc))
+        means[sym] = out[g.xc.size - 8 :, g.yc.size - 8 :, :]  # the cells of x, y > 0
+    np.testing.assert_allclose(means["quarter"], means["full"], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(means["half"], means["full"], rtol=1e-12, atol=1e-12)
+
+
+def test_a_uniform_stretching_has_the_factor_one_in_3d():
+    g = Grid.uniform((6, 5, 7), (0.05, 0.04, 0.03))
+    X, Y, Z = np.meshgrid(g.x, g.y, g.z, indexing="ij")
+    v = np.stack([0.01 * X + 0.02 * Y, -0.02 * Y, 0.015 * Z + 0.01 * X], axis=-1)
+    Vs = g.cell_volumes() * np.clip((0.15 - g.z[:-1]) / np.diff(g.z), 0.0, 1.0)[None, None, :]
+    out = np.empty(g.shape)
+    nonlocal_factor(v, g.hx, g.hy, g.hz, g.active2d, Vs, nonlocal_weights(g, 0.08), np.empty(g.shape),
+                    [np.empty(g.shape) for _ in range(5)], out)  # fmt: skip
+    np.testing.assert_allclose(out[Vs > 0], 1.0, rtol=1e-12)
+
+
+def test_the_scaled_bessel_function_of_the_ring_weight():
+    x = np.concatenate([np.linspace(0.0, 10.0, 401), np.logspace(1, 6, 41)])
+    np.testing.assert_allclose([i0e_nl(v) for v in x], i0e(x), rtol=5e-7)
+
+
+def test_the_length_is_a_scenario_key():
+    from test_axisymmetric_scenario import scenario_dict
+
+    d = scenario_dict(frame="pile", void_height=0.25)
+    d["soil"] = {"model": "hypoplastic", "nonlocal_length": 0.05, "layers": [{"top": 0.0, "relative_density": 0.9}]}
+    assert build_backend(scenario_from_dict(d)).field.nonlocal_length == 0.05
+    d["domain"].update(symmetry="quarter", frame="laboratory")
+    field = build_backend(scenario_from_dict(d)).field
+    assert field.nonlocal_length == 0.05 and field._nonlocal_weights is not None
+    d["soil"]["nonlocal_length"] = -0.01
+    with pytest.raises(ScenarioError) as err:
+        scenario_from_dict(d)
+    assert "nonlocal_length" in str(err.value)
