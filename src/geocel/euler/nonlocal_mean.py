@@ -75,6 +75,13 @@ def axis_weights(
     return lo.astype(np.int64), w
 
 
+def reaches_a_neighbour(weights) -> bool:
+    """Whether the mean of :func:`nonlocal_mean` with these per-axis weights takes in any cell but the cell
+    itself (and its mirror image): if not, the non-local model is the local one (factor 1) and need not be
+    computed (a length whose reach 3 l is below the cell spacing)."""
+    return any(w is not None and w[1].shape[1] > 1 for w in weights)
+
+
 def nonlocal_mean(Vw, x, weights, scratch, out) -> None:
     """``out`` = x* (module docstring) for the soil volumes ``Vw`` (0 where there is no soil) and the cell
     values ``x``, all (n0, n1, n2); ``weights``: the three axes' :func:`axis_weights` (None for an axis of one

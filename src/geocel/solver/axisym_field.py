@@ -32,6 +32,7 @@ from ..euler.axisym import (
 )
 from ..euler.axisym_remap import remap_rz
 from ..euler.lagrange import PHI_MIN
+from ..euler.nonlocal_mean import reaches_a_neighbour
 from ..grid.axisym import AxisymmetricGrid
 from ..materials.kernels import update_cells as material_update_cells
 from ..materials.tensor import KERNEL_OPTIONS
@@ -129,10 +130,14 @@ class AxisymmetricField(FieldBalances):
         self._force_factors = np.empty(shape + (FORCE_FACTORS_RZ,))  # scratch of the nodal pass
         #: the non-local factors ‖D‖*/‖D‖ of the last step (1 for a local soil model) and their scratch
         self.nonlocal_factor = np.ones(shape)
-        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(6)) if self.nonlocal_length > 0 else ()
+        #: the per-axis weights of the non-local mean; None for a local model or a length that reaches no
+        #: neighbouring cell (then the model is the local one)
         self._nonlocal_weights = (
             nonlocal_weights_rz(g.rc, g.zc, self.nonlocal_length) if self.nonlocal_length > 0 else None
         )
+        if self._nonlocal_weights is not None and not reaches_a_neighbour(self._nonlocal_weights):
+            self._nonlocal_weights = None
+        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(6)) if self._nonlocal_weights else ()
         self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / node_spacing(g.hz))
         self._init_bookkeeping()
         #: contact with a pile (:class:`geocel.contact.axisym.AxisymmetricPileContact`), applied to the trial
@@ -249,7 +254,7 @@ class AxisymmetricField(FieldBalances):
         )  # fmt: skip
         if contact is not None:
             contact.apply(dt)
-        nonlocal_ = self.nonlocal_length > 0.0
+        nonlocal_ = self._nonlocal_weights is not None
         if nonlocal_:
             nonlocal_factor_rz(
                 self.v, self.rc, self.hr, self.hz, self.Vs, self._nonlocal_weights, self._nonlocal_scratch[0],

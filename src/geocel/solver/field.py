@@ -25,6 +25,7 @@ from ..euler.lagrange import (
     nonlocal_weights,
     update_cells,
 )
+from ..euler.nonlocal_mean import reaches_a_neighbour
 from ..euler.remap import remap
 from ..grid import Grid
 from ..materials.kernels import model_tag
@@ -218,9 +219,12 @@ class SoilField(FieldBalances):
         self.fbar = np.zeros(shape)
         #: the non-local factors ‖D‖*/‖D‖ of the last step (1 for a local soil model) and their scratch
         self.nonlocal_factor = np.ones(shape)
-        nonlocal_ = self.nonlocal_length > 0.0
-        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(6)) if nonlocal_ else ()
-        self._nonlocal_weights = nonlocal_weights(g, self.nonlocal_length) if nonlocal_ else None
+        #: the per-axis weights of the non-local mean; None for a local model or a length that reaches no
+        #: neighbouring cell (then the model is the local one)
+        self._nonlocal_weights = nonlocal_weights(g, self.nonlocal_length) if self.nonlocal_length > 0 else None
+        if self._nonlocal_weights is not None and not reaches_a_neighbour(self._nonlocal_weights):
+            self._nonlocal_weights = None
+        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(6)) if self._nonlocal_weights else ()
         self.v = np.zeros(nshape + (3,))
         #: node displacements since the last remap (m), when the remap is deferred (``remap_courant`` > 0)
         self.u_remap = np.zeros(nshape + (3,))
@@ -346,7 +350,7 @@ class SoilField(FieldBalances):
         )
         if self.contact is not None:
             self.contact.apply(dt)
-        nonlocal_ = self.nonlocal_length > 0.0
+        nonlocal_ = self._nonlocal_weights is not None
         if nonlocal_:
             nonlocal_factor(
                 self.v, self.hx, self.hy, self.hz, self.active2d, self.Vs, self._nonlocal_weights,
