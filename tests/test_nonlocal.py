@@ -200,9 +200,8 @@ def test_the_length_is_a_scenario_key():
 def test_a_3d_run_with_the_length_steps_and_the_factor_acts(tmp_path):
     """A quarter-model jacking with l = 0.06 m on 0.05 m cells: the run finishes, and the factor departs from 1
     next to the pile (the non-local path of the 3D cell update is exercised)."""
-    from test_axisymmetric_scenario import scenario_dict
-
     from geocel.solver.simulation import Simulation
+    from test_axisymmetric_scenario import scenario_dict
 
     d = scenario_dict(symmetry="quarter")
     d["soil"] = {"model": "hypoplastic", "nonlocal_length": 0.06, "layers": [{"top": 0.0, "relative_density": 0.9}]}

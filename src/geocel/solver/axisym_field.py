@@ -254,13 +254,13 @@ class AxisymmetricField(FieldBalances):
         )  # fmt: skip
         if contact is not None:
             contact.apply(dt)
+        t1 = perf_counter()
         nonlocal_ = self._nonlocal_weights is not None
         if nonlocal_:
             nonlocal_factor_rz(
                 self.v, self.rc, self.hr, self.hz, self.Vs, self._nonlocal_weights, self._nonlocal_scratch[0],
                 self._nonlocal_scratch[1:], self.nonlocal_factor,
             )  # fmt: skip
-        t1 = perf_counter()
         dtc, arg = update_cells_rz(
             self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
             self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,

@@ -350,13 +350,13 @@ class SoilField(FieldBalances):
         )
         if self.contact is not None:
             self.contact.apply(dt)
+        t1 = time.perf_counter()
         nonlocal_ = self._nonlocal_weights is not None
         if nonlocal_:
             nonlocal_factor(
                 self.v, self.hx, self.hy, self.hz, self.active2d, self.Vs, self._nonlocal_weights,
                 self._nonlocal_scratch[0], self._nonlocal_scratch[1:], self.nonlocal_factor,
             )  # fmt: skip
-        t1 = time.perf_counter()
         dtc, arg = update_cells(
             self.model_tag,
             self.prm,
