@@ -87,7 +87,8 @@ def nonlocal_mean(Vw, x, weights, scratch, out) -> None:
     values ``x``, all (n0, n1, n2); ``weights``: the three axes' :func:`axis_weights` (None for an axis of one
     cell); ``scratch``: four arrays of that shape. 0 where Vw = 0."""
     a0, b0, a1, b1 = scratch
-    _first_pass(Vw, x, a0, b0)
+    np.multiply(Vw, x, out=a0)
+    b0[...] = Vw
     src = (a0, b0)
     dst = (a1, b1)
     for axis in range(3):
@@ -96,22 +97,13 @@ def nonlocal_mean(Vw, x, weights, scratch, out) -> None:
         lo, w = weights[axis]
         _pass(axis, lo, w, src[0], src[1], dst[0], dst[1])
         src, dst = dst, src
-    _quotient(Vw, src[0], src[1], out)
+    out[...] = 0.0
+    np.divide(src[0], src[1], out=out, where=Vw > 0.0)
 
 
 def factor_from_mean(nd, out) -> None:
     """out ← out/nd (the mean over the cell's own value) where nd > 0, bounded by :data:`MAX_FACTOR`; else 1."""
     _ratio(nd.reshape(-1), out.reshape(-1))
-
-
-@njit(parallel=True, **KERNEL_OPTIONS)
-def _first_pass(Vw, x, a, b):
-    n0, n1, n2 = Vw.shape
-    for i in prange(n0):
-        for j in range(n1):
-            for k in range(n2):
-                a[i, j, k] = Vw[i, j, k] * x[i, j, k]
-                b[i, j, k] = Vw[i, j, k]
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -143,15 +135,6 @@ def _pass(axis, lo, w, a, b, a_out, b_out):
                 sb += wm * b[i, j, q]
         a_out[i, j, k] = sa
         b_out[i, j, k] = sb
-
-
-@njit(parallel=True, **KERNEL_OPTIONS)
-def _quotient(Vw, a, b, out):
-    n0, n1, n2 = Vw.shape
-    for i in prange(n0):
-        for j in range(n1):
-            for k in range(n2):
-                out[i, j, k] = a[i, j, k] / b[i, j, k] if Vw[i, j, k] > 0.0 else 0.0
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
