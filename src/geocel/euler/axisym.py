@@ -34,8 +34,8 @@ The same central-difference step as :mod:`geocel.euler.lagrange`, with 4-node ce
 * Bulk viscosity on tr D = D_rr + D_θθ + D_zz, as in 3D.
 * **Non-local factor** (:func:`nonlocal_factor_rz`, a soil model with an internal length l): the ratio
   ‖D‖*/‖D‖ of the mean of the stretching's norm over the soil around the cell (:mod:`.nonlocal_mean`, the
-  3D Gaussian weight integrated round the rings) to the cell's own; the soil model scales its nonlinear
-  term by it (docs/numerics.md, "Non-local hypoplasticity").
+  3D Gaussian weight integrated round the rings) to the cell's own, at least 1; the soil model scales its
+  nonlinear term by it (docs/numerics.md, "Non-local hypoplasticity").
 """
 
 from __future__ import annotations
@@ -292,7 +292,7 @@ def nonlocal_mean_rz(rc, hr, hz, Vs, weights, x, scratch, out) -> None:
 
 
 def nonlocal_factor_rz(v, rc, hr, hz, Vs, weights, nd, scratch, out) -> None:
-    """``out[i, k]`` = ‖D‖*/‖D‖ of every soil cell for the node velocities v (1 in void cells and where the
+    """``out[i, k]`` = max(1, ‖D‖*/‖D‖) of every soil cell for the node velocities v (1 in void cells and where the
     soil is at rest). ``nd`` ends holding ‖D‖ (1/s); ``scratch``: as :func:`nonlocal_mean_rz`."""
     _stretching_norms_rz(v, rc, hr, hz, Vs, nd)
     nonlocal_mean_rz(rc, hr, hz, Vs, weights, nd, scratch, out)

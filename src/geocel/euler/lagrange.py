@@ -474,7 +474,7 @@ def nonlocal_weights(grid, length: float) -> tuple:
 
 
 def nonlocal_factor(v, hx, hy, hz, active, Vs, weights, nd, scratch, out) -> None:
-    """``out[i, j, k]`` = ‖D‖*/‖D‖ of every soil cell for the node velocities v (1 in void cells and where the
+    """``out[i, j, k]`` = max(1, ‖D‖*/‖D‖) of every soil cell for the node velocities v (1 in void cells and where the
     soil is at rest; :mod:`geocel.euler.nonlocal_mean`). ``nd`` ends holding ‖D‖ (1/s); ``scratch``: five
     arrays of the cells' shape."""
     Vw = scratch[0]

@@ -102,7 +102,14 @@ def nonlocal_mean(Vw, x, weights, scratch, out) -> None:
 
 
 def factor_from_mean(nd, out) -> None:
-    """out ← out/nd (the mean over the cell's own value) where nd > 0, bounded by :data:`MAX_FACTOR`; else 1."""
+    """out ← max(1, out/nd) (the mean over the cell's own value) where nd > 0, bounded by :data:`MAX_FACTOR`;
+    else 1.
+
+    The factor is not allowed below 1: it multiplies the nonlinear term of hypoplasticity, whose critical state
+    (steady shearing) needs λ f_d(e) = 1 with f_d ≤ f_d(e_i) (about 1.06 for the paper's sand). A cell in a band
+    with λ < 1/f_d(e_i) would have no critical state at any admissible density and would dilate without limit
+    (measured: the cells along a jacked pile's shaft emptied, docs/numerics.md). With λ ≥ 1 every cell keeps at
+    least its local nonlinear term, and the soil beside a band deforms plastically with it."""
     _ratio(nd.reshape(-1), out.reshape(-1))
 
 
@@ -141,4 +148,4 @@ def _pass(axis, lo, w, a, b, a_out, b_out):
 def _ratio(nd, out):
     for c in prange(nd.size):
         own = nd[c]
-        out[c] = min(out[c] / own, MAX_FACTOR) if own > 0.0 else 1.0
+        out[c] = min(max(out[c] / own, 1.0), MAX_FACTOR) if own > 0.0 else 1.0

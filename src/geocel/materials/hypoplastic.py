@@ -127,7 +127,7 @@ def _dot6(a0, a1, a2, a3, a4, a5, b0, b1, b2, b3, b4, b5):
 def rate_scalar(prm, T, e, dl, D, nl):
     """Core of :func:`rate` on 6-tuples (kept in registers: no aliasing through scratch arrays).
 
-    ``nl`` multiplies the nonlinear term N‖D‖ (N (δ̂:D) with intergranular strain): the ratio ‖D‖*/‖D‖ of
+    ``nl`` multiplies the nonlinear term N‖D‖ (N (δ̂:D) with intergranular strain): max(1, ‖D‖*/‖D‖), the ratio of
     the non-local to the local norm of the stretching (docs/numerics.md, "Non-local hypoplasticity"), 1 for
     the local model. Returns (dT, ddelta, M, flags) with dT, ddelta 6-tuples.
     """

@@ -128,7 +128,7 @@ class AxisymmetricField(FieldBalances):
         self.reaction = np.zeros(nshape + (2,))
         self.u_remap = np.zeros(nshape + (2,))
         self._force_factors = np.empty(shape + (FORCE_FACTORS_RZ,))  # scratch of the nodal pass
-        #: the non-local factors ‖D‖*/‖D‖ of the last step (1 for a local soil model) and their scratch
+        #: the non-local factors max(1, ‖D‖*/‖D‖) of the last step (1 for a local soil model) and their scratch
         self.nonlocal_factor = np.ones(shape)
         #: the per-axis weights of the non-local mean; None for a local model or a length that reaches no
         #: neighbouring cell (then the model is the local one)

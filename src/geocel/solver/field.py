@@ -217,7 +217,7 @@ class SoilField(FieldBalances):
         self.modulus = np.zeros(shape)
         self.flags = np.zeros(shape, dtype=np.int64)
         self.fbar = np.zeros(shape)
-        #: the non-local factors ‖D‖*/‖D‖ of the last step (1 for a local soil model) and their scratch
+        #: the non-local factors max(1, ‖D‖*/‖D‖) of the last step (1 for a local soil model) and their scratch
         self.nonlocal_factor = np.ones(shape)
         #: the per-axis weights of the non-local mean; None for a local model or a length that reaches no
         #: neighbouring cell (then the model is the local one)
