@@ -12,9 +12,11 @@ import math
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 from scipy.special import erfc, i0e, i1e
 
 from geocel.benchmark.presets import preset_scenario
+from geocel.config.materials import Hypoplastic
 from geocel.config.scenario import ScenarioError, scenario_from_dict
 from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
 from geocel.euler.axisym import nonlocal_factor_rz, nonlocal_mean_rz, nonlocal_weights_rz
@@ -23,6 +25,7 @@ from geocel.euler.nonlocal_mean import i0e as i0e_nl
 from geocel.euler.nonlocal_mean import nonlocal_mean
 from geocel.grid.axisym import AxisymmetricGrid
 from geocel.grid.graded import Grid
+from geocel.materials.hypoplastic import euler_tuple
 from geocel.solver.axisym_field import AxisymmetricField
 from geocel.solver.backend import build_backend
 from geocel.solver.field import SolverSettings
@@ -114,15 +117,12 @@ def test_a_band_keeps_its_own_term_and_the_soil_beside_it_gets_more():
 
 def _drained_triaxial(lam: float, strain: float, de: float = 1e-4, sr: float = 1e5):
     """Drained triaxial compression (σ_r = −sr held by solving for the radial strain of each increment) of the
-    paper's sand from e = 0.6 with the non-local factor λ held fixed; returns (e, p, material) at the end."""
-    from scipy.optimize import brentq
-
-    from geocel.config.materials import Hypoplastic
-    from geocel.materials.hypoplastic import euler_tuple
-
+    paper's sand from e = 0.6 with the non-local factor λ held fixed; returns (e after every increment, p at the
+    end, material)."""
     mat = Hypoplastic.fraction_e()
     prm = mat.to_array()
     T, e, q = (-sr, -sr, -sr, 0.0, 0.0, 0.0), 0.6, (0.0,) * 6
+    path = []
     for _ in range(round(strain / de)):
 
         def trial(dr, T=T, e=e, q=q):
@@ -130,7 +130,8 @@ def _drained_triaxial(lam: float, strain: float, de: float = 1e-4, sr: float = 1
 
         dr = brentq(lambda x: trial(x)[0][0] + sr, -de, 3.0 * de, xtol=1e-14)
         T, e, q, _, _ = trial(dr)
-    return e, -(T[0] + T[1] + T[2]) / 3.0, mat
+        path.append(e)
+    return np.array(path), -(T[0] + T[1] + T[2]) / 3.0, mat
 
 
 def test_the_factor_moves_the_critical_void_ratio_as_the_closed_form_says():
@@ -139,9 +140,9 @@ def test_the_factor_moves_the_critical_void_ratio_as_the_closed_form_says():
     void ratio lies above e_i, which f_d cannot exceed, so the sand dilates past e_i and on without end."""
     e, p, mat = _drained_triaxial(2.0, 0.3)
     ed, ec, ei = mat.limit_void_ratios(p)
-    assert e == pytest.approx(ed + (ec - ed) * 2.0 ** (-1.0 / mat.alpha), rel=1e-3)
-    e4, _, _ = _drained_triaxial(0.9, 0.4)
-    e5, p5, _ = _drained_triaxial(0.9, 0.5)
+    assert e[-1] == pytest.approx(ed + (ec - ed) * 2.0 ** (-1.0 / mat.alpha), rel=1e-3)
+    e, p5, _ = _drained_triaxial(0.9, 0.5)
+    e4, e5 = e[round(0.4 / 1e-4) - 1], e[-1]  # at 40 % and 50 % axial strain
     assert e5 > mat.limit_void_ratios(p5)[2] and e5 - e4 > 0.02
 
 
