@@ -44,9 +44,34 @@ def volume_change_rz(r, hr, hz, u, dt, Vs, Vcur):
             Vs[i, k] *= J
 
 
+@njit(**KERNEL_OPTIONS)
+def _to_wedge(r, u, v, nmass, u3, v3, m_cur):
+    """The wedge's node copies: mesh motion (u_r r, 0, u_z), velocity (v_r, 0, v_z), half the nodal mass."""
+    nr1, nz1 = nmass.shape
+    for i in range(nr1):
+        for c in range(2):
+            for k in range(nz1):
+                u3[i, c, k, 0] = u[i, k, 0] * r[i]
+                u3[i, c, k, 2] = u[i, k, 1]
+                v3[i, c, k, 0] = v[i, k, 0]
+                v3[i, c, k, 2] = v[i, k, 1]
+                m_cur[i, c, k] = 0.5 * nmass[i, k]
+
+
+@njit(**KERNEL_OPTIONS)
+def _from_wedge(m_cur, v3, nmass, v):
+    nr1, nz1 = nmass.shape
+    for i in range(nr1):
+        for k in range(nz1):
+            nmass[i, k] = m_cur[i, 0, k] + m_cur[i, 1, k]
+            v[i, k, 0] = v3[i, 0, k, 0]
+            v[i, k, 1] = v3[i, 0, k, 2]
+
+
 _ORDERS = ((0, 2), (2, 0))
-# the wedge's arrays are (r, θ, z); the swept axis comes last, as in the 3D remap
-_PERM = {0: (1, 2, 0), 2: (1, 0, 2)}
+# the wedge's arrays are (r, θ, z); the swept axis comes last, as in the 3D remap, and the other in-plane axis
+# first: the sweep kernels run their parallel loop over the first axis (θ, one cell, would leave it serial)
+_PERM = {0: (2, 1, 0), 2: (0, 1, 2)}
 
 
 def remap_rz(
@@ -67,13 +92,15 @@ def remap_rz(
     rho_lo: float = 0.0,
     rho_hi: float = np.inf,
     displacement: np.ndarray | None = None,
+    work: dict | None = None,
 ) -> tuple[float, float]:
     """Advect everything back to the fixed r–z grid (in place): node radii ``r`` (nr+1), cell heights ``hz``
     (nz), cell arrays (nr, nz[, k]), node arrays (nr+1, nz+1[, 2]) with velocity components (v_r, v_z).
     ``nmass`` (per radian) holds the nodal masses on entry and is updated; ``state`` the advected state
     components. The mesh motion is v Δt, or ``displacement`` (m, accumulated over several steps; ``dt`` is
     then ignored). ``active`` (nr, nz) bool: faces next to an inactive cell carry no flux. ``fbar`` (nr, nz)
-    is scratch. Returns (mass lost through the top, soil volume capped)."""
+    is scratch, and so is ``work`` (a dict the caller keeps between calls, for the wedge's buffers). Returns
+    (mass lost through the top, soil volume capped)."""
     if displacement is None:
         u, dt = v, dt
     else:
@@ -82,17 +109,20 @@ def remap_rz(
     rc = 0.5 * (r[1:] + r[:-1])
     volume_change_rz(r, hr, hz, u, dt, Vs, Vcur)
     nr1, nz1 = nmass.shape
-    # the wedge: mesh motion (u_r r, ·, u_z), velocity (v_r, 0, v_z) and half the nodal mass on each node copy
-    u3 = np.zeros((nr1, 2, nz1, 3))
-    u3[:, :, :, 0] = (u[:, :, 0] * r[:, None])[:, None, :]
-    u3[:, :, :, 2] = u[:, None, :, 1]
-    v3 = np.zeros((nr1, 2, nz1, 3))
-    v3[:, :, :, 0] = v[:, None, :, 0]
-    v3[:, :, :, 2] = v[:, None, :, 1]
-    m_cur = np.empty((nr1, 2, nz1))
-    m_cur[...] = 0.5 * nmass[:, None, :]
-    m_next = np.empty_like(m_cur)
-    # face areas: the r sweep's transverse sizes (θ, z) = (1, h_z), the z sweep's (θ, r) = (1, r_c h_r)
+    if work is None:
+        work = {}
+    if work.get("shape") != (nr1, nz1):  # the wedge's buffers, kept by the caller between remaps
+        work.update(
+            shape=(nr1, nz1),
+            u3=np.zeros((nr1, 2, nz1, 3)),
+            v3=np.zeros((nr1, 2, nz1, 3)),
+            m_cur=np.empty((nr1, 2, nz1)),
+            m_next=np.empty((nr1, 2, nz1)),
+            phi=np.empty((Vs.shape[0], 1, Vs.shape[1])),
+        )
+    u3, v3, m_cur, m_next, phi = work["u3"], work["v3"], work["m_cur"], work["m_next"], work["phi"]
+    _to_wedge(r, u, v, nmass, u3, v3, m_cur)
+    # face areas: the r sweep's transverse sizes (z, θ) = (h_z, 1), the z sweep's (r, θ) = (r_c h_r, 1)
     h = (rc * hr, np.ones(1), np.ascontiguousarray(hz))
     Vs3 = Vs[:, None, :]
     Vcur3 = Vcur[:, None, :]
@@ -101,7 +131,6 @@ def remap_rz(
     stress3 = stress[:, None, :, :]
     state3 = state[:, None, :, :]
     fbar3 = fbar[:, None, :]
-    phi = np.empty_like(Vs3)
     lost = 0.0
     capped = 0.0
     for axis in _ORDERS[parity % 2]:
@@ -131,7 +160,5 @@ def remap_rz(
         capped += ca
         sweep_nodes(fbar3.transpose(p), m_cur.transpose(p), m_next.transpose(p), v3.transpose(pc), mtiny)
         m_cur, m_next = m_next, m_cur
-    nmass[...] = m_cur[:, 0, :] + m_cur[:, 1, :]
-    v[:, :, 0] = v3[:, 0, :, 0]
-    v[:, :, 1] = v3[:, 0, :, 2]
+    _from_wedge(m_cur, v3, nmass, v)
     return lost, capped

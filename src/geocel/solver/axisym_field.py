@@ -120,6 +120,7 @@ class AxisymmetricField(FieldBalances):
         self.modulus = np.zeros(shape)
         self.flags = np.zeros(shape, dtype=np.int64)
         self.fbar = np.zeros(shape)
+        self._remap_work: dict = {}  # the remap's buffers
         self.v = np.zeros(nshape + (2,))
         self.nmass = np.zeros(nshape)
         self.fix = g.node_constraints()
@@ -318,6 +319,7 @@ class AxisymmetricField(FieldBalances):
             self.r, self.hz, self.active, self.v, 1.0, self.Vs, self.Vcur, self.mass, self.stress,
             self.state[..., 1:], self.nmass, self.fbar, self.remap_count, self.mass_tiny,
             self.grain_density / (1.0 + E_MAX), self.grain_density / (1.0 + E_MIN), displacement,
+            self._remap_work,
         )  # fmt: skip
         displacement[...] = 0.0
         _void_ratio_rz(self.Vs, self.volume, self.mass, self.state, self.grain_density)
