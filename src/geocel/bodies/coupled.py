@@ -61,19 +61,23 @@ def _rotation(t0, t1, t2):
 def place_tied_nodes(layer, r0, beam_z, beam_u, beam_v, x, v):
     """Volume nodes follow their beam node rigidly: x = x_b + R(θ) r⁰, v = v_b + ω × (R r⁰)."""
     nb = beam_u.shape[0]
+    Rs = np.empty((nb, 3, 3))
     for b in range(nb):
-        R = _rotation(beam_u[b, 3], beam_u[b, 4], beam_u[b, 5])
-        for n in range(layer.shape[0]):
-            if layer[n] != b:
-                continue
-            r = R @ r0[n]
-            x[n, 0] = beam_u[b, 0] + r[0]
-            x[n, 1] = beam_u[b, 1] + r[1]
-            x[n, 2] = beam_z[b] + beam_u[b, 2] + r[2]
-            w0, w1, w2 = beam_v[b, 3], beam_v[b, 4], beam_v[b, 5]
-            v[n, 0] = beam_v[b, 0] + w1 * r[2] - w2 * r[1]
-            v[n, 1] = beam_v[b, 1] + w2 * r[0] - w0 * r[2]
-            v[n, 2] = beam_v[b, 2] + w0 * r[1] - w1 * r[0]
+        Rs[b] = _rotation(beam_u[b, 3], beam_u[b, 4], beam_u[b, 5])
+    for n in range(layer.shape[0]):
+        b = layer[n]
+        R = Rs[b]
+        a0, a1, a2 = r0[n, 0], r0[n, 1], r0[n, 2]
+        p0 = R[0, 0] * a0 + R[0, 1] * a1 + R[0, 2] * a2
+        p1 = R[1, 0] * a0 + R[1, 1] * a1 + R[1, 2] * a2
+        p2 = R[2, 0] * a0 + R[2, 1] * a1 + R[2, 2] * a2
+        x[n, 0] = beam_u[b, 0] + p0
+        x[n, 1] = beam_u[b, 1] + p1
+        x[n, 2] = beam_z[b] + beam_u[b, 2] + p2
+        w0, w1, w2 = beam_v[b, 3], beam_v[b, 4], beam_v[b, 5]
+        v[n, 0] = beam_v[b, 0] + w1 * p2 - w2 * p1
+        v[n, 1] = beam_v[b, 1] + w2 * p0 - w0 * p2
+        v[n, 2] = beam_v[b, 2] + w0 * p1 - w1 * p0
 
 
 @njit(**KERNEL_OPTIONS)
