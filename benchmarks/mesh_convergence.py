@@ -13,9 +13,10 @@ Both modes use the same problem: the ``deeks-white`` preset's sand (Fraction E, 
 0.5 m/s, in a container of radius 4 m and depth 6 m (a smaller container than the centrifuge's: the base
 resistance is set within a few diameters of the pile, and the same container in 3D and r–z makes them
 comparable). ``--cells-per-radius n``: fine cells of a/n (a = 0.3 m) around the pile; 3D quarter model
-(3D accepts fractions: 1.5 is the `demo` preset's 0.2 m cells) or axisymmetric (integer n, rigid pile;
-``--rim`` the r–z contact's treatment of the node under the pile's corner, ``--soil`` the preset's sand,
-the same without intergranular strain, or the Mohr–Coulomb sand of ``benchmarks/axisymmetric_jacking.py``).
+(3D accepts fractions: 1.5 is the `demo` preset's 0.2 m cells) or axisymmetric (integer n; the rigid pile
+through ``benchmarks/axisymmetric_jacking.py``, with ``--rim`` the r–z contact's treatment of the node under
+the pile's corner and ``--soil`` the preset's sand, the same without intergranular strain, or that script's
+Mohr–Coulomb sand; ``--kind coupled`` through a scenario with the same grid, as ``geocel run`` would).
 
 Runs go in parallel (``--jobs`` processes with ``--threads`` Numba threads each). Per run: a CSV of q_b and
 q_s every 0.1 m of tip depth (each the mean over one fine cell of depth around it: the tip crossing cell
@@ -124,12 +125,14 @@ def run_rz(
     sys.path.insert(0, str(Path(__file__).parent))
     from axisymmetric_jacking import run
 
-    if kind != "rigid":
-        raise SystemExit("the axisymmetric mode has only the rigid pile so far")
     if n != int(n):
         raise SystemExit(
             "--cells-per-radius must be an integer in the axisymmetric mode (the shaft is a node line)"
         )
+    if kind != "rigid":
+        if rim != "base" or soil != "hypoplastic":
+            raise SystemExit("the coupled pile in r–z runs with the preset's sand and rim (a scenario)")
+        return run_rz_scenario(n, penetration, kind, scaling, velocity, out, frame, nonlocal_length)
     t0 = time.perf_counter()
     o = run(int(n), penetration, scaling, velocity, container_radius=CONTAINER["radius"],
             container_depth=CONTAINER["soil_depth"], rim=rim, soil=soil, verbose=False, raw=True,
@@ -146,6 +149,49 @@ def run_rz(
         "name": f"rz-{soil}-{rim}-{frame}-l{nonlocal_length:g}-n{n:g}", "mode": "axisymmetric", "n": n, "h": h, "cells": o["cells"],
         "steps": o["steps"], "wall_s": wall, "status": "finished", "depth": o["depth"], "qb": o["qb"],
         "qs": o["qs"], "profile": prof, "inertia": float("nan"),
+    }  # fmt: skip
+
+
+def run_rz_scenario(
+    n: float, penetration: float, kind: str, scaling: float, velocity: float, out: Path, frame: str,
+    nonlocal_length: float,
+) -> dict:
+    """The r–z run through a scenario (``geocel run``), for the piles the jacking script does not build (the
+    coupled pile): the same container and grading as :func:`axisymmetric_jacking.run` (fine cells a/n to 4a,
+    and 1.5 m below the base in the pile's frame or to the final depth + 1 m in the laboratory's)."""
+    from geocel.benchmark.presets import preset_dict
+    from geocel.config.scenario import scenario_from_dict
+    from geocel.io.history import read_history
+    from geocel.solver.simulation import Simulation
+
+    h = RADIUS / n
+    d = preset_dict("deeks-white", penetration=penetration, velocity=velocity, symmetry="axisymmetric")
+    pile_frame = frame == "pile"
+    d["domain"].update(
+        CONTAINER, frame=frame, fine_size=h, fine_radius=4 * RADIUS, growth=1.15, max_size=0.5,
+        fine_depth=1.5 if pile_frame else penetration + 1.0, void_height=penetration + 0.5 if pile_frame else 0.5,
+    )  # fmt: skip
+    d["soil"]["nonlocal_length"] = nonlocal_length
+    d["pile"].update(type=kind, length=penetration + 1.0)
+    d["scaling"]["mass_gravity"] = scaling
+    d["output"].update(history_every=0.01, fields_every=max(penetration, 0.5))
+    d["name"] = name = f"rz-{kind}-{frame}-l{nonlocal_length:g}-n{n:g}"
+    sim = Simulation(scenario_from_dict(d), out=out / name, progress=False, write_fields=False)
+    t0 = time.perf_counter()
+    s = sim.run()
+    wall = time.perf_counter() - t0
+    hist = read_history(out / name / "history.csv").iloc[1:]
+    f = sim.field
+    g = f.grid
+    rc = np.broadcast_to(g.rc[:, None], f.Vs.shape)
+    zc = 0.5 * (g.z[:-1] + g.z[1:]) + f.frame_offset
+    phi = f.Vs / f.volume
+    prof = _radial_profile(zc, rc, f.stress[..., 0], np.where(phi > 0.99, f.Vs, 0.0), h, penetration)
+    return {
+        "name": name, "mode": "axisymmetric", "n": n, "h": h, "cells": int(g.n_cells), "steps": s["steps"],
+        "wall_s": wall, "status": s["status"], "depth": hist["tip_depth"].to_numpy(),
+        "qb": hist["qb"].to_numpy(), "qs": hist["qs"].to_numpy(), "profile": prof,
+        "inertia": s.get("max_inertia_ratio", float("nan")),
     }  # fmt: skip
 
 
