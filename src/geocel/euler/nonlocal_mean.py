@@ -87,6 +87,8 @@ def nonlocal_mean(Vw, x, weights, scratch, out) -> None:
     values ``x``, all (n0, n1, n2); ``weights``: the three axes' :func:`axis_weights` (None for an axis of one
     cell); ``scratch``: four arrays of that shape. 0 where Vw = 0."""
     a0, b0, a1, b1 = scratch
+    if not all(a.flags.c_contiguous for a in scratch):
+        raise ValueError("nonlocal_mean: the scratch arrays must be C-contiguous")
     np.multiply(Vw, x, out=a0)
     b0[...] = Vw
     src = (a0, b0)
@@ -113,35 +115,59 @@ def factor_from_mean(nd, out) -> None:
     _ratio(nd.reshape(-1), out.reshape(-1))
 
 
+def _pass(axis, lo, w, a, b, a_out, b_out) -> None:
+    """One axis of the separable sum: a_out[.., i, ..] = Σ_m w[i, m] a[.., lo[i] + m, ..], the same for b (all
+    C-contiguous). The summed axis is brought to the front (the last one by a transposed copy), so that the
+    innermost loop runs along the memory and vectorises."""
+    n0, n1, n2 = a.shape
+    if axis == 0:
+        _pass_front(lo, w, a.reshape(n0, n1 * n2), b.reshape(n0, n1 * n2),
+                    a_out.reshape(n0, n1 * n2), b_out.reshape(n0, n1 * n2))  # fmt: skip
+    elif axis == 1:
+        _pass_middle(lo, w, a, b, a_out, b_out)
+    else:
+        at = np.ascontiguousarray(a.reshape(n0 * n1, n2).T)
+        bt = np.ascontiguousarray(b.reshape(n0 * n1, n2).T)
+        ao = np.empty_like(at)
+        bo = np.empty_like(bt)
+        _pass_front(lo, w, at, bt, ao, bo)
+        a_out.reshape(n0 * n1, n2)[...] = ao.T
+        b_out.reshape(n0 * n1, n2)[...] = bo.T
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
-def _pass(axis, lo, w, a, b, a_out, b_out):
-    """One axis of the separable sum: a_out[.., i, ..] = Σ_m w[i, m] a[.., lo[i] + m, ..], the same for b."""
+def _pass_front(lo, w, a, b, a_out, b_out):
+    """(n, m) arrays, summed along the first axis: out[i, :] = Σ_m w[i, m] src[lo[i] + m, :]."""
+    n, nrest = a.shape
+    nw = w.shape[1]
+    for i in prange(n):
+        for c in range(nrest):
+            a_out[i, c] = 0.0
+            b_out[i, c] = 0.0
+        for m in range(min(nw, n - lo[i])):
+            q = lo[i] + m
+            wm = w[i, m]
+            for c in range(nrest):
+                a_out[i, c] += wm * a[q, c]
+                b_out[i, c] += wm * b[q, c]
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def _pass_middle(lo, w, a, b, a_out, b_out):
+    """(n0, n1, n2) arrays, summed along the middle axis."""
     n0, n1, n2 = a.shape
     nw = w.shape[1]
-    n = (n0, n1, n2)[axis]
-    for p in prange(n0 * n1 * n2):
-        i = p // (n1 * n2)
-        j = (p // n2) % n1
-        k = p % n2
-        c = (i, j, k)[axis]
-        sa = 0.0
-        sb = 0.0
-        for m in range(nw):
-            q = lo[c] + m
-            if q >= n:
-                break
-            wm = w[c, m]
-            if axis == 0:
-                sa += wm * a[q, j, k]
-                sb += wm * b[q, j, k]
-            elif axis == 1:
-                sa += wm * a[i, q, k]
-                sb += wm * b[i, q, k]
-            else:
-                sa += wm * a[i, j, q]
-                sb += wm * b[i, j, q]
-        a_out[i, j, k] = sa
-        b_out[i, j, k] = sb
+    for i in prange(n0):
+        for j in range(n1):
+            for k in range(n2):
+                a_out[i, j, k] = 0.0
+                b_out[i, j, k] = 0.0
+            for m in range(min(nw, n1 - lo[j])):
+                q = lo[j] + m
+                wm = w[j, m]
+                for k in range(n2):
+                    a_out[i, j, k] += wm * a[i, q, k]
+                    b_out[i, j, k] += wm * b[i, q, k]
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
