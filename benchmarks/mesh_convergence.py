@@ -10,11 +10,11 @@ between successive ones, and the radial stress in the soil next to the shaft aft
 
 Both modes use the same problem: the ``deeks-white`` preset's sand (Fraction E, I_D = 0.93, K0 = 0.5,
 μ = tan(2/3 φ_c)), a D = 0.6 m pile with a flat base jacked from the surface, MGS factor S (default 10),
-0.5 m/s, in a container of radius 4 m and depth 6 m (a smaller container than the centrifuge's: the base
-resistance is set within a few diameters of the pile, and the same container in 3D and r–z makes them
-comparable). ``--cells-per-radius n``: fine cells of a/n (a = 0.3 m) around the pile; 3D quarter model
-(3D accepts fractions: 1.5 is the `demo` preset's 0.2 m cells) or axisymmetric (integer n; the rigid pile
-through ``benchmarks/axisymmetric_jacking.py``, with ``--rim`` the r–z contact's treatment of the node under
+0.5 m/s, in a container of radius 4 m and depth 6 m (``--container``; the same container in 3D and r–z makes
+them comparable, and a grid study compares like with like, but it is too small for absolute values: in r–z
+at 6 cells per radius a 12 m radius moves q_b by 17 % and q_s by 35 % MPE, docs/validation.md).
+``--cells-per-radius n``: fine cells of a/n (a = 0.3 m) around the pile; 3D quarter model (3D accepts
+fractions: 1.5 is the `demo` preset's 0.2 m cells) or axisymmetric (integer n; the rigid pile through ``benchmarks/axisymmetric_jacking.py``, with ``--rim`` the r–z contact's treatment of the node under
 the pile's corner and ``--soil`` the preset's sand, the same without intergranular strain, or that script's
 Mohr–Coulomb sand; ``--kind coupled`` through a scenario with the same grid, as ``geocel run`` would).
 
@@ -65,7 +65,10 @@ def _radial_profile(zc, r, srr, weight, band, tip):
     return np.array(rows) if rows else np.zeros((0, 2))
 
 
-def run_3d(n: float, penetration: float, kind: str, scaling: float, velocity: float, out: Path, **_) -> dict:
+def run_3d(
+    n: float, penetration: float, kind: str, scaling: float, velocity: float, out: Path,
+    container: dict = CONTAINER, **_,
+) -> dict:  # fmt: skip
     from geocel.benchmark.presets import preset_dict
     from geocel.config.scenario import scenario_from_dict
     from geocel.io.history import read_history
@@ -74,7 +77,7 @@ def run_3d(n: float, penetration: float, kind: str, scaling: float, velocity: fl
     h = RADIUS / n
     d = preset_dict("deeks-white", resolution="demo", penetration=penetration, velocity=velocity)
     d["domain"].update(
-        CONTAINER, void_height=0.6, fine_size=h, fine_radius=max(4 * RADIUS, 1.2),
+        container, void_height=0.6, fine_size=h, fine_radius=max(4 * RADIUS, 1.2),
         fine_depth=penetration + 1.5, growth=1.2, max_size=0.8,
     )  # fmt: skip
     d["pile"]["type"] = kind
@@ -121,6 +124,7 @@ def run_rz(
     soil: str = "hypoplastic",
     frame: str = "laboratory",
     nonlocal_length: float = 0.0,
+    container: dict = CONTAINER,
 ) -> dict:
     sys.path.insert(0, str(Path(__file__).parent))
     from axisymmetric_jacking import run
@@ -132,10 +136,10 @@ def run_rz(
     if kind != "rigid":
         if rim != "base" or soil != "hypoplastic":
             raise SystemExit("the coupled pile in r–z runs with the preset's sand and rim (a scenario)")
-        return run_rz_scenario(n, penetration, kind, scaling, velocity, out, frame, nonlocal_length)
+        return run_rz_scenario(n, penetration, kind, scaling, velocity, out, frame, nonlocal_length, container)
     t0 = time.perf_counter()
-    o = run(int(n), penetration, scaling, velocity, container_radius=CONTAINER["radius"],
-            container_depth=CONTAINER["soil_depth"], rim=rim, soil=soil, verbose=False, raw=True,
+    o = run(int(n), penetration, scaling, velocity, container_radius=container["radius"],
+            container_depth=container["soil_depth"], rim=rim, soil=soil, verbose=False, raw=True,
             frame=frame, nonlocal_length=nonlocal_length)  # fmt: skip
     wall = time.perf_counter() - t0
     f = o["field"]
@@ -154,7 +158,7 @@ def run_rz(
 
 def run_rz_scenario(
     n: float, penetration: float, kind: str, scaling: float, velocity: float, out: Path, frame: str,
-    nonlocal_length: float,
+    nonlocal_length: float, container: dict = CONTAINER,
 ) -> dict:
     """The r–z run through a scenario (``geocel run``), for the piles the jacking script does not build (the
     coupled pile): the same container and grading as :func:`axisymmetric_jacking.run` (fine cells a/n to 4a,
@@ -168,7 +172,7 @@ def run_rz_scenario(
     d = preset_dict("deeks-white", penetration=penetration, velocity=velocity, symmetry="axisymmetric")
     pile_frame = frame == "pile"
     d["domain"].update(
-        CONTAINER, frame=frame, fine_size=h, fine_radius=4 * RADIUS, growth=1.15, max_size=0.5,
+        container, frame=frame, fine_size=h, fine_radius=4 * RADIUS, growth=1.15, max_size=0.5,
         fine_depth=1.5 if pile_frame else penetration + 1.0, void_height=penetration + 0.5 if pile_frame else 0.5,
     )  # fmt: skip
     d["soil"]["nonlocal_length"] = nonlocal_length
@@ -305,12 +309,17 @@ def main() -> None:
         "--nonlocal-length", type=float, default=0.0,
         help="r–z only: internal length l of the hypoplastic sand, m (0: the local model; docs/numerics.md)",
     )  # fmt: skip
+    ap.add_argument(
+        "--container", type=float, nargs=2, default=(CONTAINER["radius"], CONTAINER["soil_depth"]),
+        metavar=("RADIUS", "DEPTH"), help="container radius and soil depth, m (4 6; the centrifuge's: 21.25 28)",
+    )  # fmt: skip
     ap.add_argument("--jobs", type=int, default=1, help="runs at a time")
     ap.add_argument("--threads", type=int, default=1, help="Numba threads per run")
     ap.add_argument("--out", type=Path, default=Path("runs/mesh_convergence"))
     a = ap.parse_args()
-    if not (0 < a.penetration < CONTAINER["soil_depth"] - 1.0 and math.isfinite(a.penetration)):
-        ap.error(f"penetration must be in (0, {CONTAINER['soil_depth'] - 1.0}) m")
+    container = {"radius": a.container[0], "soil_depth": a.container[1]}
+    if not (0 < a.penetration < container["soil_depth"] - 1.0 and math.isfinite(a.penetration)):
+        ap.error(f"penetration must be in (0, {container['soil_depth'] - 1.0}) m")
     if any(not (n > 0 and math.isfinite(n)) for n in a.cells_per_radius):
         ap.error("cells per radius must be positive numbers")
     a.out.mkdir(parents=True, exist_ok=True)
@@ -318,7 +327,7 @@ def main() -> None:
         a.rim != "base" or a.soil != "hypoplastic" or a.frame != "laboratory" or a.nonlocal_length != 0.0
     ):
         ap.error("--rim, --soil, --frame and --nonlocal-length are options of the axisymmetric mode")
-    options = {"rim": a.rim, "soil": a.soil} | (
+    options = {"rim": a.rim, "soil": a.soil, "container": container} | (
         {"frame": a.frame, "nonlocal_length": a.nonlocal_length} if a.mode == "axisymmetric" else {}
     )
     tasks = [
