@@ -14,8 +14,9 @@ Both modes use the same problem: the ``deeks-white`` preset's sand (Fraction E, 
 them comparable, and a grid study compares like with like, but it is too small for absolute values: in r–z
 at 6 cells per radius a 12 m radius moves q_b by 17 % and q_s by 35 % MPE, docs/validation.md).
 ``--cells-per-radius n``: fine cells of a/n (a = 0.3 m) around the pile; 3D quarter model (3D accepts
-fractions: 1.5 is the `demo` preset's 0.2 m cells) or axisymmetric (integer n; the rigid pile through ``benchmarks/axisymmetric_jacking.py``, with ``--rim`` the r–z contact's treatment of the node under
-the pile's corner and ``--soil`` the preset's sand, the same without intergranular strain, or that script's
+fractions: 1.5 is the `demo` preset's 0.2 m cells) or axisymmetric (integer n; the rigid pile through
+``benchmarks/axisymmetric_jacking.py``, with ``--rim`` the r–z contact's treatment of the node under the
+pile's corner and ``--soil`` the preset's sand, the same without intergranular strain, or that script's
 Mohr–Coulomb sand; ``--kind coupled`` through a scenario with the same grid, as ``geocel run`` would).
 
 Runs go in parallel (``--jobs`` processes with ``--threads`` Numba threads each). Per run: a CSV of q_b and
