@@ -66,14 +66,25 @@ def _radial_profile(zc, r, srr, weight, band, tip):
     return np.array(rows) if rows else np.zeros((0, 2))
 
 
+def _simulate(d: dict, out: Path):
+    """Run the scenario dict ``d`` into out/<its name>: (simulation, summary, wall time in s, history rows
+    after the first)."""
+    from geocel.config.scenario import scenario_from_dict
+    from geocel.io.history import read_history
+    from geocel.solver.simulation import Simulation
+
+    sim = Simulation(scenario_from_dict(d), out=out / d["name"], progress=False, write_fields=False)
+    t0 = time.perf_counter()
+    s = sim.run()
+    wall = time.perf_counter() - t0
+    return sim, s, wall, read_history(out / d["name"] / "history.csv").iloc[1:]
+
+
 def run_3d(
     n: float, penetration: float, kind: str, scaling: float, velocity: float, out: Path,
     container: dict = CONTAINER, **_,
 ) -> dict:  # fmt: skip
     from geocel.benchmark.presets import preset_dict
-    from geocel.config.scenario import scenario_from_dict
-    from geocel.io.history import read_history
-    from geocel.solver.simulation import Simulation
 
     h = RADIUS / n
     d = preset_dict("deeks-white", resolution="demo", penetration=penetration, velocity=velocity)
@@ -85,11 +96,7 @@ def run_3d(
     d["pile"]["length"] = penetration + 2.0
     d["scaling"]["mass_gravity"] = scaling
     d["name"] = name = f"3d-{kind}-n{n:g}"
-    sim = Simulation(scenario_from_dict(d), out=out / name, progress=False, write_fields=False)
-    t0 = time.perf_counter()
-    s = sim.run()
-    wall = time.perf_counter() - t0
-    hist = read_history(out / name / "history.csv").iloc[1:]
+    sim, s, wall, hist = _simulate(d, out)
     f = sim.field
     g = f.grid
     xc = 0.5 * (g.x[:-1] + g.x[1:])
@@ -165,9 +172,6 @@ def run_rz_scenario(
     coupled pile): the same container and grading as :func:`axisymmetric_jacking.run` (fine cells a/n to 4a,
     and 1.5 m below the base in the pile's frame or to the final depth + 1 m in the laboratory's)."""
     from geocel.benchmark.presets import preset_dict
-    from geocel.config.scenario import scenario_from_dict
-    from geocel.io.history import read_history
-    from geocel.solver.simulation import Simulation
 
     h = RADIUS / n
     d = preset_dict("deeks-white", penetration=penetration, velocity=velocity, symmetry="axisymmetric")
@@ -181,11 +185,7 @@ def run_rz_scenario(
     d["scaling"]["mass_gravity"] = scaling
     d["output"].update(history_every=0.01, fields_every=max(penetration, 0.5))
     d["name"] = name = f"rz-{kind}-{frame}-l{nonlocal_length:g}-n{n:g}"
-    sim = Simulation(scenario_from_dict(d), out=out / name, progress=False, write_fields=False)
-    t0 = time.perf_counter()
-    s = sim.run()
-    wall = time.perf_counter() - t0
-    hist = read_history(out / name / "history.csv").iloc[1:]
+    sim, s, wall, hist = _simulate(d, out)
     f = sim.field
     g = f.grid
     rc = np.broadcast_to(g.rc[:, None], f.Vs.shape)
