@@ -117,8 +117,8 @@ def factor_from_mean(nd, out) -> None:
 
 def _pass(axis, lo, w, a, b, a_out, b_out) -> None:
     """One axis of the separable sum: a_out[.., i, ..] = Σ_m w[i, m] a[.., lo[i] + m, ..], the same for b (all
-    C-contiguous). The summed axis is brought to the front (the last one by a transposed copy), so that the
-    innermost loop runs along the memory and vectorises."""
+    C-contiguous). The innermost loop always runs along the memory, so that it vectorises: the first axis is
+    summed row by row, the middle one per plane, the last one on a transposed copy (as the first)."""
     n0, n1, n2 = a.shape
     if axis == 0:
         _pass_front(lo, w, a.reshape(n0, n1 * n2), b.reshape(n0, n1 * n2),
