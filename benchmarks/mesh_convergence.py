@@ -66,6 +66,15 @@ def _radial_profile(zc, r, srr, weight, band, tip):
     return np.array(rows) if rows else np.zeros((0, 2))
 
 
+def _rz_profile(f, h: float, penetration: float) -> np.ndarray:
+    """:func:`_radial_profile` of an r–z field (laboratory elevations also in the pile's frame)."""
+    g = f.grid
+    rc = np.broadcast_to(g.rc[:, None], f.Vs.shape)
+    zc = 0.5 * (g.z[:-1] + g.z[1:]) + f.frame_offset
+    phi = f.Vs / f.volume
+    return _radial_profile(zc, rc, f.stress[..., 0], np.where(phi > 0.99, f.Vs, 0.0), h, penetration)
+
+
 def _simulate(d: dict, out: Path):
     """Run the scenario dict ``d`` into out/<its name>: (simulation, summary, wall time in s, history rows
     after the first)."""
@@ -151,12 +160,8 @@ def run_rz(
             frame=frame, nonlocal_length=nonlocal_length)  # fmt: skip
     wall = time.perf_counter() - t0
     f = o["field"]
-    g = f.grid
     h = RADIUS / n
-    rc = np.broadcast_to(g.rc[:, None], f.Vs.shape)
-    zc = 0.5 * (g.z[:-1] + g.z[1:]) + f.frame_offset  # (laboratory elevations in the pile's frame)
-    phi = f.Vs / f.volume
-    prof = _radial_profile(zc, rc, f.stress[..., 0], np.where(phi > 0.99, f.Vs, 0.0), h, penetration)
+    prof = _rz_profile(f, h, penetration)
     return {
         "name": f"rz-{soil}-{rim}-{frame}-l{nonlocal_length:g}-n{n:g}", "mode": "axisymmetric", "n": n, "h": h, "cells": o["cells"],
         "steps": o["steps"], "wall_s": wall, "status": "finished", "depth": o["depth"], "qb": o["qb"],
@@ -188,10 +193,7 @@ def run_rz_scenario(
     sim, s, wall, hist = _simulate(d, out)
     f = sim.field
     g = f.grid
-    rc = np.broadcast_to(g.rc[:, None], f.Vs.shape)
-    zc = 0.5 * (g.z[:-1] + g.z[1:]) + f.frame_offset
-    phi = f.Vs / f.volume
-    prof = _radial_profile(zc, rc, f.stress[..., 0], np.where(phi > 0.99, f.Vs, 0.0), h, penetration)
+    prof = _rz_profile(f, h, penetration)
     return {
         "name": name, "mode": "axisymmetric", "n": n, "h": h, "cells": int(g.n_cells), "steps": s["steps"],
         "wall_s": wall, "status": s["status"], "depth": hist["tip_depth"].to_numpy(),
