@@ -105,9 +105,10 @@ def test_mgs_holds_in_the_moving_frame():
     f, c, r1 = _jack(scaling=1.0, velocity=0.5)
     _, _, r10 = _jack(scaling=10.0, velocity=0.5 / math.sqrt(10.0))
     # the two runs are the same to round-off step by step (measured: to 1e-9 for the first 560 steps, 0.11 m),
-    # until round-off grows in the plastic flow; the curves stay within 3 % (measured 1.6 %)
-    assert len(r1) == len(r10)
-    np.testing.assert_allclose(r10[:500, 1], r1[:500, 1], rtol=1e-9, atol=1e-6)
+    # until round-off grows in the plastic flow (it reaches the stable step, so the step counts may end one or
+    # two apart: 2515 against 2514 on one machine); the curves stay within 3 % (measured 1.6 %)
+    assert abs(len(r1) - len(r10)) <= 0.002 * len(r1)
+    np.testing.assert_allclose(r10[:500, :2], r1[:500, :2], rtol=1e-9, atol=1e-6)
     np.testing.assert_allclose(_curve(r10, depths), _curve(r1, depths), rtol=0.03)
     assert c.worst_friction_excess < 1e-9
     assert c.soil_inside() < 1e-6 * c.pile_volume()
