@@ -8,7 +8,7 @@ a/n out to 4a and down to the final depth + 1 m, then growing by 15 % per cell u
 the node line r = a. Contact: :mod:`geocel.contact.axisym`.
 
     NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_jacking.py --cells-per-radius 6 [--penetration 1.2]
-        [--scaling 10] [--velocity 0.5] [--base band|edge] [--rim base|split|shaft] [--profile]
+        [--scaling 10] [--velocity 0.5] [--base band|edge] [--rim base|split|shaft|corner] [--profile]
         [--soil hypoplastic|hypoplastic-no-igs|mohr-coulomb] [--frame laboratory|pile] [--nonlocal-length l]
 
 Prints, at every 0.1 m of base depth, q_b (MPa) and q_s (kPa), each the mean over the steps within ±0.025 m
@@ -161,7 +161,7 @@ def main() -> None:
     ap.add_argument("--penetration", type=float, default=1.2, help="m")
     ap.add_argument("--scaling", type=float, default=10.0, help="MGS factor S")
     ap.add_argument("--velocity", type=float, default=0.5, help="m/s")
-    ap.add_argument("--rim", default="base", choices=("base", "split", "shaft"))
+    ap.add_argument("--rim", default="base", choices=("base", "split", "shaft", "corner"))
     ap.add_argument("--base", default="band", choices=("band", "edge"))
     ap.add_argument("--safety-factor", type=float, default=None, help="Δt = this × the stable step (0.9)")
     ap.add_argument("--profile", action="store_true", help="print where the wall time went")

@@ -151,9 +151,9 @@ def run_rz(
             "--cells-per-radius must be an integer in the axisymmetric mode (the shaft is a node line)"
         )
     if kind != "rigid":
-        if rim != "base" or soil != "hypoplastic":
-            raise SystemExit("the coupled pile in r–z runs with the preset's sand and rim (a scenario)")
-        return run_rz_scenario(n, penetration, kind, scaling, velocity, out, frame, nonlocal_length, container)
+        if soil != "hypoplastic":
+            raise SystemExit("the coupled pile in r–z runs with the preset's sand (a scenario)")
+        return run_rz_scenario(n, penetration, kind, scaling, velocity, out, frame, nonlocal_length, container, rim)
     t0 = time.perf_counter()
     o = run(int(n), penetration, scaling, velocity, container_radius=container["radius"],
             container_depth=container["soil_depth"], rim=rim, soil=soil, verbose=False, raw=True,
@@ -171,7 +171,7 @@ def run_rz(
 
 def run_rz_scenario(
     n: float, penetration: float, kind: str, scaling: float, velocity: float, out: Path, frame: str,
-    nonlocal_length: float, container: dict = CONTAINER,
+    nonlocal_length: float, container: dict = CONTAINER, rim: str = "base",
 ) -> dict:
     """The r–z run through a scenario (``geocel run``), for the piles the jacking script does not build (the
     coupled pile): the same container and grading as :func:`axisymmetric_jacking.run` (fine cells a/n to 4a,
@@ -186,10 +186,11 @@ def run_rz_scenario(
         fine_depth=1.5 if pile_frame else penetration + 1.0, void_height=penetration + 0.5 if pile_frame else 0.5,
     )  # fmt: skip
     d["soil"]["nonlocal_length"] = nonlocal_length
+    d.setdefault("contact", {})["rim"] = rim
     d["pile"].update(type=kind, length=penetration + 1.0)
     d["scaling"]["mass_gravity"] = scaling
     d["output"].update(history_every=0.01, fields_every=max(penetration, 0.5))
-    d["name"] = name = f"rz-{kind}-{frame}-l{nonlocal_length:g}-n{n:g}"
+    d["name"] = name = f"rz-{kind}-{rim}-{frame}-l{nonlocal_length:g}-n{n:g}"
     sim, s, wall, hist = _simulate(d, out)
     f = sim.field
     g = f.grid
@@ -297,7 +298,7 @@ def main() -> None:
     ap.add_argument("--kind", default="rigid", choices=("rigid", "coupled"))
     ap.add_argument("--scaling", type=float, default=10.0, help="MGS factor S")
     ap.add_argument("--velocity", type=float, default=0.5, help="m/s")
-    ap.add_argument("--rim", default="base", choices=("base", "split", "shaft"), help="r–z only")
+    ap.add_argument("--rim", default="base", choices=("base", "split", "shaft", "corner"), help="r–z only")
     ap.add_argument(
         "--soil",
         default="hypoplastic",

@@ -39,7 +39,7 @@ def test_the_pile_radius_must_be_a_grid_line():
     with pytest.raises(ValueError, match="node line"):
         AxisymmetricPileContact(f, RigidPileRZ(0.31, 0.0), friction=0.3)
     with pytest.raises(ValueError, match="rim"):
-        AxisymmetricPileContact(f, RigidPileRZ(A, 0.0), friction=0.3, rim="corner")
+        AxisymmetricPileContact(f, RigidPileRZ(A, 0.0), friction=0.3, rim="edge")
     with pytest.raises(ValueError, match="base"):
         AxisymmetricPileContact(f, RigidPileRZ(A, 0.0), friction=0.3, base="cone")
     with pytest.raises(ValueError, match="friction"):

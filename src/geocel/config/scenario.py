@@ -380,12 +380,14 @@ class Contact(_Table):
         "where the pile surface crosses the grid's edges (punch and wished-in-place pile exact, but soil flows "
         "into the cells cut by the base rim during jacking; experimental, see docs/numerics.md)",
     )
-    rim: Literal["base", "split", "shaft"] = Field(
+    rim: Literal["base", "split", "shaft", "corner"] = Field(
         "base",
         description="axisymmetric only: the node under the base's corner takes the base's condition (base: the "
         "base acts half a cell wider, q_b converges from above), the shaft's (shaft: half a cell narrower), or "
         "the base's on the part of its mass under the base (split: a Mohr–Coulomb sand's q_b grid-converged "
-        "in the pile's frame, but a sand that is soft at low stress leaks round the corner; docs/numerics.md)",
+        "in the pile's frame, but a sand that is soft at low stress leaks round the corner), or it is split in "
+        "two vertically, the part under the base moving with it and the part beside the shaft sliding along it "
+        "(corner: the pile's frame only; docs/numerics.md)",
     )
 
     def friction_coefficient(self, material: MaterialModel) -> float:
@@ -555,6 +557,8 @@ class Scenario(_Table):
                 self._check_axisymmetric_pile()
             elif self.contact.rim != "base":
                 raise _invalid(("contact", "rim"), self.contact.rim, 'an option of symmetry = "axisymmetric"')
+            if self.contact.rim == "corner" and self.domain.frame != "pile":
+                raise _invalid(("contact", "rim"), "corner", 'needs [domain] frame = "pile"')
             if self.contact.friction is None and isinstance(self.soil.material, Elastic):
                 raise _invalid(
                     ("contact", "friction"),

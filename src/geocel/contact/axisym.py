@@ -35,7 +35,15 @@ Lagrangian phase (velocity projection with impulses, as in 3D, DESIGN.md §4.5):
   velocity — its velocity change is scaled by that fraction, about ½. "split" is not a constraint but a
   compromise: the punch limit is within 3 % of the converged value from 8 cells per radius on, but the rim
   node yields a little under a static load (a wished-in-place pile at rest creeps). In all three v_r ≥ 0
-  there (no soil into the pile under its corner);
+  there (no soil into the pile under its corner). "corner" (the pile's frame only, :func:`corner_rz`)
+  splits the rim node in two vertically: the half of the cells r < a is a base node, the half of the cells
+  r > a a shaft node that slides along the pile with friction, sharing v_r ≥ 0. In the other three the soil
+  beside the shaft is pinned to the base at the corner while the shaft node above it slides with the soil:
+  the cell between them is stretched at about v/(2h) for the time h/v the soil takes to pass it, a volumetric
+  strain of about ½ whatever the cell size, a loosened (jacked sand: e up to 1.4 > e_i) or part-empty layer
+  one cell thick up the shaft. The split removes that; the cells left of the node see the inner half's
+  vertical velocity (:func:`geocel.euler.axisym.split_gradient_rz`), the others the outer half's, and the
+  remap does the same with the mesh motion (the pile's cells are inactive: no flux through their faces);
 * the pile receives −(impulse)/Δt: base and shaft forces per radian (× 2π for the pile), q_b = F_b,z/(πa²),
   q_s = F_s,z/(2πa L) with L the embedded length below z = 0.
 
@@ -69,8 +77,8 @@ from ..euler.axisym import node_force_rz
 from ..euler.lagrange import PHI_MIN
 from ..materials.tensor import KERNEL_OPTIONS
 
-#: rim node treatments (``rim``, module docstring), in the order of the kernel's codes 0, 1, 2
-RIM_OPTIONS = ("shaft", "base", "split")
+#: rim node treatments (``rim``, module docstring), in the order of the kernel's codes 0, 1, 2, 3
+RIM_OPTIONS = ("shaft", "base", "split", "corner")
 #: base formulations (``base``, module docstring)
 BASE_OPTIONS = ("band", "edge")
 
@@ -221,7 +229,7 @@ def project_pile_rz(ia, kc, t_edge, nmass, cmass, v, fix, mtiny, vp, vs, mu, mu_
             for i in range(ia):
                 for k in range(kc + 1, nz1):
                     _signorini_base(i, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out)
-    if rim > 0:
+    if rim == 1 or rim == 2:
         m = nmass[ia, kc]
         kap = 1.0
         if rim == 2 and m > mtiny:
@@ -229,7 +237,7 @@ def project_pile_rz(ia, kc, t_edge, nmass, cmass, v, fix, mtiny, vp, vs, mu, mu_
             # base (from the cells r < a) is moved with it, so the base acts over r ≤ a, not wider
             kap = 0.25 * (cmass[ia - 1, kc] + (cmass[ia - 1, kc - 1] if kc > 0 else 0.0)) / m
         _signorini_base(ia, kc, nmass, v, fix, mtiny, vp, mu_b, kap, c, out)
-    if rim > 0 and nmass[ia, kc] > mtiny and v[ia, kc, 0] < 0.0 and not fix[ia, kc, 0]:
+    if (rim == 1 or rim == 2) and nmass[ia, kc] > mtiny and v[ia, kc, 0] < 0.0 and not fix[ia, kc, 0]:
         # the rim node is on the shaft's line: no soil into the pile under its corner
         out[0] += nmass[ia, kc] * v[ia, kc, 0] * c
         v[ia, kc, 0] = 0.0
@@ -259,6 +267,150 @@ def project_pile_rz(ia, kc, t_edge, nmass, cmass, v, fix, mtiny, vp, vs, mu, mu_
         out[3] -= f_t
         out[4] += f_t * vs[k]
         out[5] += 1.0
+
+
+@njit(**KERNEL_OPTIONS)
+def _split_velocity(m_a, m_b, v_c, w):
+    """The velocities of two parts (masses m_a, m_b) of a node with the mean velocity v_c and the relative
+    velocity w = v_b − v_a; one part empty: both move with the node."""
+    m = m_a + m_b
+    if m_a <= 0.0 or m_b <= 0.0:
+        return v_c, v_c
+    return v_c - (m_b / m) * w, v_c + (m_a / m) * w
+
+
+@njit(**KERNEL_OPTIONS)
+def _split_trial(m_a, m_b, mtiny, v_c_trial, v_b_old, a_b, dt):
+    """The parts' trial velocities: part b's from its own acceleration ``a_b``, part a's from the momentum of
+    the node's trial velocity (so the two keep the node's momentum exactly)."""
+    if m_a <= mtiny or m_b <= mtiny:
+        return v_c_trial, v_c_trial
+    v_b = v_b_old + dt * a_b
+    return ((m_a + m_b) * v_c_trial - m_b * v_b) / m_a, v_b
+
+
+@njit(**KERNEL_OPTIONS)
+def corner_rz(
+    ia, kc, hr, hz, rc, Vs, mass, stress, q, hg, nmass, v, v_old, fix, mtiny, gravity, vp, vs_k, mu, mu_b, dt,
+    corner, fn, ft, out, cw,
+):  # fmt: skip
+    """The rim node (ia, kc) split at the pile's corner (``rim = "corner"``, module docstring), in place on v.
+
+    Each of the node's three soil cells keeps its own corner: the cell under the base's edge (ia − 1, kc − 1),
+    the cell beside it below the base's level (ia, kc − 1) and the cell beside the shaft above it (ia, kc). The
+    first two share the radial velocity v_r^A (the soil squeezed out from under the base, with the base's
+    friction μ_b), the last two the vertical velocity v_z^out (friction μ against the shaft); the first has its
+    own vertical velocity v_z^in (Signorini against the base), the last its own radial velocity v_r^B
+    (Signorini against the shaft: no soil into the pile, separation free). Each of the four has the mass of its
+    cells' quarters and their forces, so the cells' strains and the nodal forces stay each other's transpose.
+    The field's node holds the mass-weighted means (the nodal pass and the remap see one node); ``corner`` (4)
+    holds (w_z, w_r) = (v_z^out − v_z^in, v_r^B − v_r^A), updated, and receives (v_z^in, v_r^B). Forces on the
+    pile into ``fn``, ``ft``, ``out`` as in :func:`project_pile_rz`; ``cw`` (6) receives the corrections to the
+    work of the stress, viscous, hourglass and gravity forces, the contact's work on the soil (as
+    :func:`contact_work_rz`, for this node) and the kinetic energy."""
+    for d in range(6):
+        cw[d] = 0.0
+    m_i = 0.25 * mass[ia - 1, kc - 1]  # under the base's edge (the cell above it is the pile's)
+    m_l = 0.25 * mass[ia, kc - 1]  # beside it, below the base's level
+    m_u = 0.25 * mass[ia, kc]  # beside the shaft
+    m_A = m_i + m_l
+    m_o = m_l + m_u
+    m = m_A + m_u
+    if m <= mtiny:
+        return
+    gr_ = 0.5 / hr
+    gz_ = 0.5 / hz
+    nr_ = 0.25 / rc
+    fs, fq, fh = node_force_rz(ia, kc, gr_, gz_, nr_, Vs, mass, stress, q, hg)
+    # the outer cells' vertical forces on the node and the upper one's radial force (the node is their left
+    # corner, ξ = −1; node_force_rz restricted to them)
+    fzs = 0.0
+    fzq = 0.0
+    fzh = 0.0
+    frs = 0.0
+    frq = 0.0
+    frh = 0.0
+    for ck in (kc - 1, kc):
+        eta = 1.0 if ck < kc else -1.0
+        gr = -gr_[ia]
+        gz = eta * gz_[ck]
+        vsc = Vs[ia, ck]
+        pq = vsc * q[ia, ck]
+        fzs -= vsc * (stress[ia, ck, 4] * gr + stress[ia, ck, 2] * gz)
+        fzq += pq * gz
+        fzh += eta * mass[ia, ck] * hg[ia, ck, 1]
+        if ck == kc:
+            frs = -vsc * (stress[ia, ck, 0] * gr + stress[ia, ck, 4] * gz + stress[ia, ck, 1] * nr_[ia])
+            frq = pq * (gr + nr_[ia])
+            frh = eta * mass[ia, ck] * hg[ia, ck, 0]
+    c = 1.0 / dt
+    vr_t = v[ia, kc, 0]
+    vz_t = v[ia, kc, 1]
+    # the four velocities before the nodal pass (from the node's and the relative ones) and their trials
+    zi_o, zo_o = _split_velocity(m_i, m_o, v_old[ia, kc, 1], corner[0])
+    ra_o, rb_o = _split_velocity(m_A, m_u, v_old[ia, kc, 0], corner[1])
+    zi_t, zo_t = _split_trial(m_i, m_o, mtiny, vz_t, zo_o, (fzs + fzq + fzh) / max(m_o, mtiny) - gravity, dt)
+    ra_t, rb_t = _split_trial(m_A, m_u, mtiny, vr_t, rb_o, (frs + frq + frh) / max(m_u, mtiny), dt)
+    if m_u <= mtiny:
+        rb_t = ra_t
+    # shaft: Signorini on v_r^B, Coulomb friction on v_z^out with v_r^B's normal impulse
+    drb = -rb_t if (rb_t < 0.0 and m_u > mtiny and not fix[ia, kc, 0]) else 0.0
+    dzo = 0.0
+    if drb > 0.0 and m_o > mtiny and not fix[ia, kc, 1]:
+        t = zo_t - vs_k
+        lim = mu * m_u * drb / m_o
+        dzo = -t if abs(t) <= lim else (-lim if t > 0.0 else lim)
+    # base: Signorini on v_z^in, friction μ_b on v_r^A with v_z^in's normal impulse
+    dzi = 0.0
+    if m_i > mtiny and zi_t > vp and not fix[ia, kc, 1]:
+        dzi = vp - zi_t
+    dra = 0.0
+    if dzi != 0.0 and not fix[ia, kc, 0]:
+        lim = mu_b * m_i * (-dzi) / m_A
+        dra = -ra_t if abs(ra_t) <= lim else (-lim if ra_t > 0.0 else lim)
+    zi = zi_t + dzi
+    zo = zo_t + dzo
+    ra = ra_t + dra
+    rb = rb_t + drb
+    vr = (m_A * ra + m_u * rb) / m
+    vz = (m_i * zi + m_o * zo) / m
+    v[ia, kc, 0] = vr
+    v[ia, kc, 1] = vz
+    corner[0] = zo - zi if (m_i > mtiny and m_o > mtiny) else 0.0
+    corner[1] = rb - ra if (m_A > mtiny and m_u > mtiny) else 0.0
+    corner[2] = zi
+    corner[3] = rb
+    # forces on the pile (of the impulses on the soil)
+    frb = m_A * dra * c
+    fzb = m_i * dzi * c
+    out[0] -= frb
+    out[1] -= fzb
+    out[4] += fzb * vp
+    f_n = m_u * drb * c
+    f_t = m_o * dzo * c
+    fn[kc] = f_n
+    ft[kc] = -f_t
+    out[2] -= f_n
+    out[3] -= f_t
+    out[4] += f_t * vs_k
+    out[5] += (1.0 if dzi != 0.0 else 0.0) + (1.0 if drb > 0.0 else 0.0)
+    # energy: the nodal pass counted the node's mean velocity (v_old + v_trial)/2 with its whole force
+    ar = 0.5 * (v_old[ia, kc, 0] + vr_t)
+    az = 0.5 * (v_old[ia, kc, 1] + vz_t)
+    bA = 0.5 * (ra_o + ra)
+    bB = 0.5 * (rb_o + rb)
+    bi = 0.5 * (zi_o + zi)
+    bo = 0.5 * (zo_o + zo)
+    fr = (fs[0], fq[0], fh[0])
+    fz = (fs[1], fq[1], fh[1])
+    frB = (frs, frq, frh)
+    fzO = (fzs, fzq, fzh)
+    for d in range(3):
+        true = (fr[d] - frB[d]) * bA + frB[d] * bB + (fz[d] - fzO[d]) * bi + fzO[d] * bo
+        cw[d] = -dt * (true - fr[d] * ar - fz[d] * az)
+    cw[3] = -gravity * dt * (m_i * bi + m_o * bo - m * az)
+    cw[4] = m_A * dra * bA + m_u * drb * bB + m_i * dzi * bi + m_o * dzo * bo
+    cw[5] = 0.5 * (m_A * bA * bA + m_u * bB * bB + m_i * bi * bi + m_o * bo * bo) - 0.5 * m * (ar * ar + az * az)
 
 
 @njit(**KERNEL_OPTIONS)
@@ -298,7 +450,7 @@ def contact_work_rz(
 @njit(**KERNEL_OPTIONS)
 def contact_step_rz(
     ia, kc, t_edge, hr, hz, rc, Vs, mass, stress, q, hg, nmass, v, fix, mtiny, gravity, vp, vs, mu, mu_b, rim,
-    dt, v_old, v_trial, fn, ft, out, work,
+    dt, v_old, v_trial, fn, ft, out, work, corner, cw,
 ):  # fmt: skip
     """One step's contact in one call (no Python between the parts): keep the trial velocities of the nodes
     [0, ia] × [kc, nz] in ``v_trial``, :func:`project_pile_rz`, then :func:`contact_work_rz` with ``v_old``
@@ -311,6 +463,13 @@ def contact_step_rz(
             v_trial[i, k, 0] = v[i, k, 0]
             v_trial[i, k, 1] = v[i, k, 1]
     project_pile_rz(ia, kc, t_edge, nmass, mass, v, fix, mtiny, vp, vs, mu, mu_b, rim, dt, fn, ft, out)
+    if rim == 3:
+        corner_rz(
+            ia, kc, hr, hz, rc, Vs, mass, stress, q, hg, nmass, v, v_old, fix, mtiny, gravity, vp, vs[kc], mu, mu_b,
+            dt, corner, fn, ft, out, cw,
+        )  # fmt: skip
+        v_trial[ia, kc, 0] = v[ia, kc, 0]  # (its work is in cw, not counted again below)
+        v_trial[ia, kc, 1] = v[ia, kc, 1]
     worst = -np.inf
     stray = False
     fsum = 0.0
@@ -324,6 +483,9 @@ def contact_step_rz(
         ia, kc, hr, hz, rc, Vs, mass, stress, q, hg, nmass, mtiny, gravity, dt, v_old[:, kc:], v_trial[:, kc:], v,
         work,
     )  # fmt: skip
+    if rim == 3:
+        for d in range(5):
+            work[d] += cw[d]
     return worst, stray, fsum
 
 
@@ -390,6 +552,14 @@ class AxisymmetricPileContact:
         self._v_old = np.zeros((ia + 1, nz1, 2))
         self._v_trial = np.zeros((ia + 1, nz1, 2))
         self._vs = np.zeros(nz1)  # the shaft's vertical velocity per node row, filled every step
+        # rim "corner" (corner_rz): the parts' relative velocities and (v_z^in, v_r^B), the corrections of the
+        # energies, the node's mean velocity while the field's node holds (v_r^A, v_z^out) (None: the field holds
+        # the mean) and the vertical mesh motion of v_z^in and the radial one of v_r^B since the last remap
+        self._corner = np.zeros(4)
+        self._cw = np.zeros(6)
+        self._v_comb: tuple[float, float] | None = None
+        self._u_in = 0.0
+        self._u_B = 0.0
         self._kc = -1
         # base_row() every step: the grid's node elevations as a list (bisect) and the tolerance, once
         self._z_nodes = g.z.tolist()
@@ -437,8 +607,14 @@ class AxisymmetricPileContact:
                 f"in the pile's frame the base (z = {zb:.6g} m) must lie on a node row of the grid (the nearest "
                 f"below is z = {self._z_nodes[k]:.6g} m): an initial embedment of whole fine cells"
             )
+        if self.rim == "corner" and k < 1:
+            raise ValueError('rim = "corner" needs soil cells below the base')
         self._z_frame = self._z_nodes[k]
         self.field.move_with()
+        if self.rim == "corner":
+            # the pile's cells carry no flux in the remap: the corner's two halves move the faces under the base
+            # and beside the shaft differently, and the pile's faces must not carry soil either way
+            self.field.active[: self.ia, k:] = False
 
     def base_row(self) -> int:
         """Node row k_c at or just below the base (z[k_c] ≤ z_b, to 1e-9 of a cell)."""
@@ -508,7 +684,12 @@ class AxisymmetricPileContact:
             f.frame_velocity = (self.z_base - f.frame_offset - self._z_frame) / dt
             self._kc = kc = bisect.bisect_right(self._z_nodes, self._z_frame + self._row_tol) - 1
         else:
+            if self.rim == "corner":
+                raise ValueError('rim = "corner" needs the pile\'s frame ([domain] frame = "pile", follow_pile())')
             self._kc = kc = self.base_row()
+        if self._v_comb is not None:  # the nodal pass works on the corner's mean velocity
+            f.v[self.ia, kc] = self._v_comb
+            self._v_comb = None
         self._v_old[:, kc:] = f.v[: self.ia + 1, kc:]
 
     def apply(self, dt: float) -> None:
@@ -533,7 +714,7 @@ class AxisymmetricPileContact:
         worst, stray, fsum = contact_step_rz(
             ia, kc, t_edge, f.hr, f.hz, f.rc, f.Vs, f.mass, f.stress, f.q, f.hg, f.nmass, f.v, f.fix, f.mass_tiny,
             f.gravity, vp, vs, self.mu, self.mu_base, self._rim_code, dt, self._v_old, self._v_trial,
-            self.shaft_normal, self.shaft_friction, out, w,
+            self.shaft_normal, self.shaft_friction, out, w, self._corner, self._cw,
         )  # fmt: skip
         if worst > -math.inf:
             self.worst_friction_excess = max(self.worst_friction_excess, worst)
@@ -549,6 +730,17 @@ class AxisymmetricPileContact:
         self.contact_nodes = int(out[5])
         self.pile.load = self._level_load(s, kc, self._v_trial[:, kc:], dt)
         self._pile_motion += (vp - f.frame_velocity) * dt
+        if self.rim == "corner":
+            # the cells and the mesh motion see (v_r^A, v_z^out) at the node; the cells left of it v_z^in, the
+            # cell beside the shaft v_r^B (field.split)
+            wz, wr, zi, rb = self._corner
+            self._v_comb = (float(f.v[ia, kc, 0]), float(f.v[ia, kc, 1]))
+            f.v[ia, kc, 0] = rb - wr
+            f.v[ia, kc, 1] = zi + wz
+            f.split[:] = (ia, kc, zi, rb)
+            self._u_in += (zi - f.frame_velocity) * dt
+            self._u_B += rb * dt
+            f.kinetic_correction = float(self._cw[5])
         e = f.energy
         e["internal"] += w[0]
         e["viscous"] += w[1]
@@ -579,6 +771,8 @@ class AxisymmetricPileContact:
         ia = self.ia
         stick = (fn > 0.0) & (np.abs(ft) < self.mu * fn * (1.0 - 1e-12)) & ~f.fix[ia, :, 1]
         m_shaft = np.where(stick, f.nmass[ia], 0.0)
+        if self.rim == "corner" and stick[kc]:  # (the outer half only)
+            m_shaft[kc] = 0.25 * (f.mass[ia, kc - 1] + f.mass[ia, kc])
         layer = np.zeros((nl, 4))
         tied = np.zeros((nl, 2))
         for col, val in ((0, ft), (1, -fn)):
@@ -600,7 +794,8 @@ class AxisymmetricPileContact:
         up), so the remap cannot carry soil into the pile (module docstring)."""
         ia, kc = self.ia, self.base_row()
         self._z_remap = self.z_base_grid
-        col = displacement[ia, kc:, 0]
+        corner = self.rim == "corner"
+        col = displacement[ia, kc + 1 if corner else kc :, 0]  # (the corner's radial motion A is under the base)
         neg = col < 0.0
         if neg.any():
             self.clamped_motion -= float(col[neg].sum())
@@ -609,7 +804,9 @@ class AxisymmetricPileContact:
         # nodes above the base, i < i_a, and the shaft node at the pile's corner, which is also the top corner
         # of the cell under the base's edge): the soil of those cells is not lifted into the pile
         up = displacement[: ia + 1, kc + 1 :, 1] - self._pile_motion
-        up[ia, 1:] = 0.0
+        # (in the pile's frame the base lies on row kc: no cell is cut by it, the shaft node above the corner
+        # is a shaft node like the others, and clamping it would stretch the cell above it in the remap)
+        up[ia, 0 if self._z_frame is not None else 1 :] = 0.0
         pos = (up > 0.0) & (self.field.nmass[: ia + 1, kc + 1 :] > self.field.mass_tiny)
         if pos.any():
             self.clamped_motion += float(up[pos].sum())
@@ -617,10 +814,20 @@ class AxisymmetricPileContact:
         # the rim node: where it lags the base ("split", "shaft"), the soil of the cell under the base's edge
         # still leaves that cell with the base (the transport follows the pile there, the strain does not)
         lag = displacement[ia, kc, 1] - self._pile_motion
-        if lag > 0.0 and self.rim != "base":
+        if lag > 0.0 and self.rim in ("split", "shaft"):
             self.clamped_motion += lag
             displacement[ia, kc, 1] -= lag
         self._pile_motion = 0.0
+        f = self.field
+        if corner:
+            # the node's own motion is (A, out); the vertical motion "in" goes to the cell under the base's
+            # edge, the radial one B to the cell beside the shaft
+            f.remap_split[:] = (ia, kc, self._u_in, self._u_B)
+            self._u_in = 0.0
+            self._u_B = 0.0
+            if self._v_comb is not None:  # the remap carries the node's momentum
+                f.v[ia, kc] = self._v_comb
+                self._v_comb = None
 
     # --- checkpoints -----------------------------------------------------------------------------------------
     def state_arrays(self) -> dict[str, np.ndarray]:
@@ -637,6 +844,8 @@ class AxisymmetricPileContact:
         scalars += [self.friction_work, self.worst_friction_excess, self.clamped_motion, self.contact_nodes]
         f = self.field  # the pile's frame (its inflow reference is rebuilt with the model)
         scalars += [f.frame_offset, f.frame_velocity, f.inflow_mass, f.refill_offset]
+        vc = (math.nan, math.nan) if self._v_comb is None else self._v_comb
+        scalars += [*self._corner, *vc, self._u_in, self._u_B]
         return {
             "scalars": np.array(scalars, dtype=float),
             "base_force": self.base_force.copy(),
@@ -660,6 +869,10 @@ class AxisymmetricPileContact:
         if len(sc) > 10:  # (checkpoints before the pile's frame: a fixed grid)
             f = self.field
             f.frame_offset, f.frame_velocity, f.inflow_mass, f.refill_offset = sc[10:14]
+        if len(sc) > 14:  # (checkpoints before rim = "corner")
+            self._corner[:] = sc[14:18]
+            self._v_comb = None if math.isnan(sc[18]) else (sc[18], sc[19])
+            self._u_in, self._u_B = sc[20:22]
         for name in ("base_force", "shaft_force", "shaft_normal", "shaft_friction"):
             getattr(self, name)[...] = arrays[name]
 

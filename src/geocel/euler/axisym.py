@@ -113,6 +113,9 @@ def node_force_rz(i, k, gr_, gz_, nr_, Vs, mass, stress, q, hg):
     return (fr, fz), (pr, pz), (hr_, hz_)
 
 
+#: no node split (:func:`split_gradient_rz`)
+NO_SPLIT = np.array([-1.0, -1.0, 0.0, 0.0])
+
 #: per-cell force factors of :func:`cell_force_factors_rz` (the last axis of its output)
 FORCE_FACTORS_RZ = 10
 
@@ -268,6 +271,27 @@ def velocity_gradient_rz(v, i, k, hr, hz, rc):
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
+def split_gradient_rz(v, i, k, hr, hz, rc, split):
+    """:func:`velocity_gradient_rz`, where the node (i_s, k_s) = ``split[:2]`` is split at the pile's corner
+    (:func:`geocel.contact.axisym.corner_rz`): the cells left of it, (i_s − 1, k_s − 1) and (i_s − 1, k_s), see
+    the vertical velocity ``split[2]`` instead of ``v[i_s, k_s, 1]``, the cell (i_s, k_s) right of and above it
+    the radial velocity ``split[3]`` instead of ``v[i_s, k_s, 0]``. ``split[0] < 0``: no split."""
+    L, qh = velocity_gradient_rz(v, i, k, hr, hz, rc)
+    si = int(split[0])
+    sk = int(split[1])
+    if si < 0 or (k != sk and k != sk - 1):
+        return L, qh
+    if i == si - 1:  # the node is the cell's right corner (ξ = +1), its top (η = +1) or bottom one
+        d = split[2] - v[si, sk, 1]
+        eta = 1.0 if k == sk - 1 else -1.0
+        return (L[0], L[1], L[2] + d * 0.5 / hr, L[3] + eta * d * 0.5 / hz, L[4]), (qh[0], qh[1] + eta * d)
+    if i == si and k == sk:  # the node is the cell's bottom left corner (ξ = η = −1)
+        d = split[3] - v[si, sk, 0]
+        return (L[0] - d * 0.5 / hr, L[1] - d * 0.5 / hz, L[2], L[3], L[4] + d * 0.25 / rc), (qh[0] + d, qh[1])
+    return L, qh
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
 def _soil_volume(Vs, rc, hr, hz, i, k):
     """Vs of a soil cell, 0 for a void one (below :data:`PHI_MIN`)."""
     vs = Vs[i, k]
@@ -291,10 +315,11 @@ def nonlocal_mean_rz(rc, hr, hz, Vs, weights, x, scratch, out) -> None:
     )
 
 
-def nonlocal_factor_rz(v, rc, hr, hz, Vs, weights, nd, scratch, out) -> None:
+def nonlocal_factor_rz(v, rc, hr, hz, Vs, weights, nd, scratch, out, split=NO_SPLIT) -> None:
     """``out[i, k]`` = max(1, ‖D‖*/‖D‖) of every soil cell for the node velocities v (1 in void cells and where the
-    soil is at rest). ``nd`` ends holding ‖D‖ (1/s); ``scratch``: as :func:`nonlocal_mean_rz`."""
-    _stretching_norms_rz(v, rc, hr, hz, Vs, nd)
+    soil is at rest). ``nd`` ends holding ‖D‖ (1/s); ``scratch``: as :func:`nonlocal_mean_rz`; ``split``: as
+    :func:`split_gradient_rz`."""
+    _stretching_norms_rz(v, rc, hr, hz, Vs, nd, split)
     nonlocal_mean_rz(rc, hr, hz, Vs, weights, nd, scratch, out)
     factor_from_mean(nd, out)
 
@@ -308,7 +333,7 @@ def _soil_volumes_rz(Vs, rc, hr, hz, out):
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def _stretching_norms_rz(v, rc, hr, hz, Vs, nd):
+def _stretching_norms_rz(v, rc, hr, hz, Vs, nd, split):
     """‖D‖ (1/s) of every soil cell, 0 in void cells."""
     ncr, ncz = Vs.shape
     for i in prange(ncr):
@@ -316,7 +341,7 @@ def _stretching_norms_rz(v, rc, hr, hz, Vs, nd):
             if _soil_volume(Vs, rc, hr, hz, i, k) == 0.0:
                 nd[i, k] = 0.0
                 continue
-            L, _ = velocity_gradient_rz(v, i, k, hr[i], hz[k], rc[i])
+            L, _ = split_gradient_rz(v, i, k, hr[i], hz[k], rc[i], split)
             drz = 0.5 * (L[1] + L[2])
             nd[i, k] = np.sqrt(L[0] * L[0] + L[4] * L[4] + L[3] * L[3] + 2.0 * drz * drz)
 
@@ -349,6 +374,7 @@ def update_cells_rz(
     nlf,
     nonlocal_,
     nchunk=64,
+    split=NO_SPLIT,
 ):
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (module
     docstring: D = (D_rr, D_θθ, D_zz, 0, D_rz, 0)Δt, W_13 Δt; the model given by ``tag``; in
@@ -358,7 +384,8 @@ def update_cells_rz(
     the remap has nearly emptied pushes proportionally less). Cells below :data:`PHI_MIN` are set
     stress-free. ``state[..., hoff:hoff + 2]`` holds the hourglass generalised stresses (Pa). ``nchunk``: the
     rows are dealt round-robin to that many chunks of work (the field gives one per thread: each thread
-    then takes every nchunk-th row, which balances them to within a row).
+    then takes every nchunk-th row, which balances them to within a row). ``split``: a node split in two
+    vertically (:func:`split_gradient_rz`).
 
     Returns (stable Δt of the cells, flat index of the cell governing it), with the viscosity correction of
     the explicit scheme as in 3D and L_e = :func:`characteristic_length_rz`."""
@@ -396,7 +423,7 @@ def update_cells_rz(
                     st2[c, hoff + 1] = 0.0
                     flags[i, k] = 0
                     continue
-                L, qh = velocity_gradient_rz(v, i, k, h_r, h_z, r_c)
+                L, qh = split_gradient_rz(v, i, k, h_r, h_z, r_c, split)
                 D = (L[0] * dt, L[4] * dt, L[3] * dt, 0.0, 0.5 * (L[1] + L[2]) * dt, 0.0)
                 W = (0.0, 0.5 * (L[1] - L[2]) * dt, 0.0)
                 nsub = substeps(D, max_sub)

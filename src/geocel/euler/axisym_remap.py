@@ -24,13 +24,19 @@ import numpy as np
 from numba import njit, prange
 
 from ..materials.tensor import KERNEL_OPTIONS
+from .axisym import NO_SPLIT
 from .remap import soil_fraction, sweep_cells, sweep_nodes
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def volume_change_rz(r, hr, hz, u, dt, Vs, Vcur):
-    """V_cur = V J and V_s ← V_s J for every cell, J = 1 + Δt ∇·u with the face-flux divergence above."""
+def volume_change_rz(r, hr, hz, u, dt, Vs, Vcur, split=NO_SPLIT):
+    """V_cur = V J and V_s ← V_s J for every cell, J = 1 + Δt ∇·u with the face-flux divergence above.
+    ``split``: a node (i_s, k_s) split at the pile's corner (:func:`geocel.euler.axisym.split_gradient_rz`): the
+    cells left of it see the vertical motion ``split[2]``, the cell right of and above it the radial motion
+    ``split[3]`` (m with the accumulated motion)."""
     ncr, ncz = Vs.shape
+    si = int(split[0])
+    sk = int(split[1])
     for i in prange(ncr):
         rc = 0.5 * (r[i] + r[i + 1])
         for k in range(ncz):
@@ -39,6 +45,12 @@ def volume_change_rz(r, hr, hz, u, dt, Vs, Vcur):
             u0 = 0.5 * (u[i, k, 0] + u[i, k + 1, 0])
             w1 = 0.5 * (u[i, k + 1, 1] + u[i + 1, k + 1, 1])
             w0 = 0.5 * (u[i, k, 1] + u[i + 1, k, 1])
+            if i == si - 1 and k == sk - 1:
+                w1 = 0.5 * (u[i, k + 1, 1] + split[2])
+            elif i == si - 1 and k == sk:
+                w0 = 0.5 * (u[i, k, 1] + split[2])
+            elif i == si and k == sk:
+                u0 = 0.5 * (split[3] + u[i, k + 1, 0])
             J = 1.0 + dt * ((r[i + 1] * u1 - r[i] * u0) / (rc * hr[i]) + (w1 - w0) / hz[k])
             Vcur[i, k] = vol * J
             Vs[i, k] *= J
@@ -93,13 +105,15 @@ def remap_rz(
     rho_hi: float = np.inf,
     displacement: np.ndarray | None = None,
     work: dict | None = None,
+    split: np.ndarray = NO_SPLIT,
 ) -> tuple[float, float]:
     """Advect everything back to the fixed r–z grid (in place): node radii ``r`` (nr+1), cell heights ``hz``
     (nz), cell arrays (nr, nz[, k]), node arrays (nr+1, nz+1[, 2]) with velocity components (v_r, v_z).
     ``nmass`` (per radian) holds the nodal masses on entry and is updated; ``state`` the advected state
     components. The mesh motion is v Δt, or ``displacement`` (m, accumulated over several steps; ``dt`` is
     then ignored). ``active`` (nr, nz) bool: faces next to an inactive cell carry no flux. ``fbar`` (nr, nz)
-    is scratch, and so is ``work`` (a dict the caller keeps between calls, for the wedge's buffers). Returns
+    is scratch, and so is ``work`` (a dict the caller keeps between calls, for the wedge's buffers); ``split``: a
+    node split at the pile's corner (:func:`volume_change_rz`). Returns
     (mass lost through the top, soil volume capped)."""
     if displacement is None:
         u, dt = v, dt
@@ -107,7 +121,7 @@ def remap_rz(
         u, dt = displacement, 1.0
     hr = np.diff(r)
     rc = 0.5 * (r[1:] + r[:-1])
-    volume_change_rz(r, hr, hz, u, dt, Vs, Vcur)
+    volume_change_rz(r, hr, hz, u, dt, Vs, Vcur, split)
     nr1, nz1 = nmass.shape
     if work is None:
         work = {}

@@ -23,6 +23,7 @@ from numba import get_num_threads, njit
 from ..euler.axisym import (
     FORCE_FACTORS_RZ,
     HOURGLASS_STATE_RZ,
+    NO_SPLIT,
     advance_nodes_rz,
     characteristic_length_rz,
     node_mass_rz,
@@ -144,6 +145,13 @@ class AxisymmetricField(FieldBalances):
         #: contact with a pile (:class:`geocel.contact.axisym.AxisymmetricPileContact`), applied to the trial
         #: velocities of every step
         self.contact = None
+        #: a node split by the contact at the pile's corner (``rim = "corner"``): (i, k, the vertical velocity
+        #: the cells left of it see, the radial one the cell right of and above it sees) in the step, and the
+        #: same with the mesh motions in the remap; i < 0: none (geocel.euler.axisym.split_gradient_rz)
+        self.split = NO_SPLIT.copy()
+        self.remap_split = NO_SPLIT.copy()
+        #: the contact's correction to the kinetic energy of the step (J/rad; a split node's two halves)
+        self.kinetic_correction = 0.0
         #: the grid's own vertical velocity in the laboratory (m/s; set every step by the contact in the pile's
         #: frame, :meth:`move_with`) and the laboratory elevation of its z = 0 (m)
         self.frame_velocity = 0.0
@@ -260,13 +268,13 @@ class AxisymmetricField(FieldBalances):
         if nonlocal_:
             nonlocal_factor_rz(
                 self.v, self.rc, self.hr, self.hz, self.Vs, self._nonlocal_weights, self._nonlocal_scratch[0],
-                self._nonlocal_scratch[1:], self.nonlocal_factor,
+                self._nonlocal_scratch[1:], self.nonlocal_factor, self.split,
             )  # fmt: skip
         dtc, arg = update_cells_rz(
             self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
             self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength, self._max_substep,
-            self.nonlocal_factor, nonlocal_, get_num_threads(),
+            self.nonlocal_factor, nonlocal_, get_num_threads(), self.split,
         )  # fmt: skip
         if not (math.isfinite(ke) and math.isfinite(dEi)):
             raise InstabilityError(
@@ -293,7 +301,7 @@ class AxisymmetricField(FieldBalances):
             self.frame_offset += wz * dt
         t3 = perf_counter()
         e = self.energy
-        e["kinetic"] = ke
+        e["kinetic"] = ke + self.kinetic_correction
         e["internal"] += dEi
         e["viscous"] += dEv
         e["hourglass"] += dEh
@@ -319,7 +327,7 @@ class AxisymmetricField(FieldBalances):
             self.r, self.hz, self.active, self.v, 1.0, self.Vs, self.Vcur, self.mass, self.stress,
             self.state[..., 1:], self.nmass, self.fbar, self.remap_count, self.mass_tiny,
             self.grain_density / (1.0 + E_MAX), self.grain_density / (1.0 + E_MIN), displacement,
-            self._remap_work,
+            self._remap_work, self.remap_split,
         )  # fmt: skip
         displacement[...] = 0.0
         _void_ratio_rz(self.Vs, self.volume, self.mass, self.state, self.grain_density)
