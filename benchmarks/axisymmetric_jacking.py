@@ -45,7 +45,7 @@ def run(
     penetration: float = 1.2,
     scaling: float = 10.0,
     velocity: float = 0.5,
-    rim: str = "base",
+    rim: str | None = None,
     base: str = "band",
     safety_factor: float | None = None,
     soil: str = "hypoplastic",
@@ -76,6 +76,7 @@ def run(
         sc = sc.model_copy(update={"soil": sc.soil.model_copy(update={"material": nl})})
     mat = sc.soil.material
     h = RADIUS / cells_per_radius
+    rim = rim or ("corner" if frame == "pile" else "base")  # (a scenario's default)
     if frame == "pile":  # the grid moves with the base: fine cells 1.5 m below it and along the shaft
         fine_depth, void = min(1.5, container_depth), penetration + 0.5
     else:
@@ -161,7 +162,10 @@ def main() -> None:
     ap.add_argument("--penetration", type=float, default=1.2, help="m")
     ap.add_argument("--scaling", type=float, default=10.0, help="MGS factor S")
     ap.add_argument("--velocity", type=float, default=0.5, help="m/s")
-    ap.add_argument("--rim", default="base", choices=("base", "split", "shaft", "corner"))
+    ap.add_argument(
+        "--rim", default=None, choices=("base", "split", "shaft", "corner"),
+        help="the node under the pile's corner (default: corner in the pile's frame, base in the laboratory's)",
+    )  # fmt: skip
     ap.add_argument("--base", default="band", choices=("band", "edge"))
     ap.add_argument("--safety-factor", type=float, default=None, help="Δt = this × the stable step (0.9)")
     ap.add_argument("--profile", action="store_true", help="print where the wall time went")

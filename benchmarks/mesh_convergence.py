@@ -137,12 +137,13 @@ def run_rz(
     scaling: float,
     velocity: float,
     out: Path,
-    rim: str = "base",
+    rim: str | None = None,
     soil: str = "hypoplastic",
     frame: str = "laboratory",
     nonlocal_length: float = 0.0,
     container: dict = CONTAINER,
 ) -> dict:
+    rim = rim or ("corner" if frame == "pile" else "base")  # (the scenario's default)
     sys.path.insert(0, str(Path(__file__).parent))
     from axisymmetric_jacking import run
 
@@ -298,7 +299,10 @@ def main() -> None:
     ap.add_argument("--kind", default="rigid", choices=("rigid", "coupled"))
     ap.add_argument("--scaling", type=float, default=10.0, help="MGS factor S")
     ap.add_argument("--velocity", type=float, default=0.5, help="m/s")
-    ap.add_argument("--rim", default="base", choices=("base", "split", "shaft", "corner"), help="r–z only")
+    ap.add_argument(
+        "--rim", default=None, choices=("base", "split", "shaft", "corner"),
+        help="r–z only (default: corner in the pile's frame, base in the laboratory's)",
+    )
     ap.add_argument(
         "--soil",
         default="hypoplastic",
@@ -328,7 +332,7 @@ def main() -> None:
         ap.error("cells per radius must be positive numbers")
     a.out.mkdir(parents=True, exist_ok=True)
     if a.mode == "3d" and (
-        a.rim != "base" or a.soil != "hypoplastic" or a.frame != "laboratory" or a.nonlocal_length != 0.0
+        a.rim is not None or a.soil != "hypoplastic" or a.frame != "laboratory" or a.nonlocal_length != 0.0
     ):
         ap.error("--rim, --soil, --frame and --nonlocal-length are options of the axisymmetric mode")
     options = {"rim": a.rim, "soil": a.soil, "container": container} | (

@@ -3,10 +3,14 @@ halved and doubled (one at a time) and the change of the result is printed.
 
     python benchmarks/sensitivity.py punch [--cells-per-radius 8]
     python benchmarks/sensitivity.py pile [--penetration 1.5] [--kind rigid] [--only safety_factor ...]
+    python benchmarks/sensitivity.py pile-rz [--cells-per-radius 6] [--penetration 1.0] [--jobs 2]
 
 ``punch``: the mean q/c_u over 4–8 % D of the smooth rigid punch on Tresca soil (Shield: 5.69).
 ``pile``: q_b(z) and q_s(z) of the jacked pile at the demo resolution (small container, S = 10,
-0.5 m/s), as the MPE against the default run over the tip depths ≥ 0.3 m.
+0.5 m/s), as the MPE against the default run over the tip depths ≥ 0.3 m. ``pile-rz``: the same for the rigid
+pile in r–z in the pile's frame (the preset's sand with l = 0.1 m, the centrifuge's container, the default
+corner; ``--cells-per-radius`` fine cells of a/n), q_b over tip depths ≥ 0.3 m and q_s ≥ 0.5 m; the remap
+runs after every step there, so its Courant number is not varied.
 
 The coefficients: viscous hourglass damping κ, the multiplier of the physical hourglass stiffness, linear
 and quadratic bulk viscosity, the remap's Courant number, the time-step safety factor and the soil model's
@@ -86,18 +90,76 @@ def pile(penetration: float, kind: str, only=None) -> None:
     print(f"largest change: q_b {worst_b:.2f} %, q_s {worst_s:.2f} %")
 
 
+def _rz_run(args) -> tuple:
+    """One r–z run of :func:`pile_rz` (in a worker process): (name, depths, q_b, q_s, wall s)."""
+    import time
+
+    from geocel.benchmark.presets import preset_dict
+    from geocel.config.scenario import scenario_from_dict
+    from geocel.io.history import read_history
+    from geocel.solver.simulation import Simulation
+
+    name, solver, cells, penetration, tmp = args
+    d = preset_dict("deeks-white", penetration=penetration, velocity=0.5, symmetry="axisymmetric")
+    d["domain"].update(frame="pile", fine_size=0.3 / cells, fine_radius=1.2, fine_depth=1.5, growth=1.15,
+                       max_size=3.0, void_height=penetration + 0.5)  # fmt: skip
+    d["soil"]["nonlocal_length"] = 0.1
+    d["scaling"]["mass_gravity"] = 10.0
+    d["output"].update(history_every=0.01, fields_every=penetration)
+    d.setdefault("solver", {}).update(solver)
+    d["name"] = safe = name.replace(" ", "_")
+    sim = Simulation(scenario_from_dict(d), out=Path(tmp) / safe, progress=False, write_fields=False)
+    t0 = time.perf_counter()
+    sim.run()
+    h = read_history(Path(tmp) / safe / "history.csv").iloc[1:]
+    return name, h["tip_depth"].to_numpy(), h["qb"].to_numpy(), h["qs"].to_numpy(), time.perf_counter() - t0
+
+
+def pile_rz(cells: int, penetration: float, only=None, jobs: int = 1) -> None:
+    from concurrent.futures import ProcessPoolExecutor
+
+    variants = [(n, v) for n, v in _variants(only) if "remap_courant" not in v]
+    h = 0.3 / cells
+
+    def window(z, q, at):  # the mean over one fine cell of depth around each depth (the base's ripple)
+        return np.array([q[np.abs(z - d) <= 0.5 * h + 1e-9].mean() for d in at])
+
+    at_b = np.round(np.arange(0.3, penetration + 1e-9, 0.1), 6)
+    at_s = at_b[at_b >= 0.5 - 1e-9]
+    with tempfile.TemporaryDirectory() as tmp, ProcessPoolExecutor(jobs) as pool:
+        runs = list(pool.map(_rz_run, [(n, v, cells, penetration, tmp) for n, v in variants]))
+    ref_b = ref_s = None
+    worst_b = worst_s = 0.0
+    for name, z, qb, qs, wall in runs:
+        b, s = window(z, qb, at_b), window(z, qs, at_s)
+        if ref_b is None:
+            ref_b, ref_s = b, s
+        mpe_b = 100 * np.mean(np.abs(b / ref_b - 1))
+        mpe_s = 100 * np.mean(np.abs(s / ref_s - 1))
+        worst_b, worst_s = max(worst_b, mpe_b), max(worst_s, mpe_s)
+        print(
+            f"{name:32s} MPE q_b {mpe_b:5.2f} %  MPE q_s {mpe_s:5.2f} %  q_b({at_b[-1]:.1f} m) = "
+            f"{b[-1] / 1e6:.2f} MPa  q_s = {s[-1] / 1e3:.2f} kPa  ({wall:.0f} s)",
+            flush=True,
+        )
+    print(f"largest change: q_b {worst_b:.2f} %, q_s {worst_s:.2f} %")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("case", choices=("punch", "pile"))
-    ap.add_argument("--cells-per-radius", type=int, default=8)
-    ap.add_argument("--penetration", type=float, default=1.5)
+    ap.add_argument("case", choices=("punch", "pile", "pile-rz"))
+    ap.add_argument("--cells-per-radius", type=int, default=None, help="punch: 8, pile-rz: 6")
+    ap.add_argument("--penetration", type=float, default=None, help="m (pile: 1.5, pile-rz: 1.0)")
+    ap.add_argument("--jobs", type=int, default=1, help="pile-rz: runs in parallel (one thread each)")
     ap.add_argument("--kind", default="rigid", choices=("rigid", "coupled", "solid"))
     ap.add_argument("--only", nargs="+", choices=list(COEFFICIENTS), help="vary only these coefficients")
     a = ap.parse_args()
     if a.case == "punch":
-        punch(a.cells_per_radius, a.only)
+        punch(a.cells_per_radius or 8, a.only)
+    elif a.case == "pile":
+        pile(a.penetration or 1.5, a.kind, a.only)
     else:
-        pile(a.penetration, a.kind, a.only)
+        pile_rz(a.cells_per_radius or 6, a.penetration or 1.0, a.only, a.jobs)
 
 
 if __name__ == "__main__":

@@ -382,12 +382,13 @@ class Contact(_Table):
     )
     rim: Literal["base", "split", "shaft", "corner"] = Field(
         "base",
-        description="axisymmetric only: the node under the base's corner takes the base's condition (base: the "
+        description="axisymmetric only (the default is corner in the pile's frame): the node under the base's "
+        "corner takes the base's condition (base: the "
         "base acts half a cell wider, q_b converges from above), the shaft's (shaft: half a cell narrower), or "
         "the base's on the part of its mass under the base (split: a Mohr–Coulomb sand's q_b grid-converged "
-        "in the pile's frame, but a sand that is soft at low stress leaks round the corner), or it is split in "
-        "two vertically, the part under the base moving with it and the part beside the shaft sliding along it "
-        "(corner: the pile's frame only; docs/numerics.md)",
+        "in the pile's frame, but a sand that is soft at low stress leaks round the corner), or it is split "
+        "between its cells, the soil under the base moving with it and the soil beside the shaft sliding along "
+        "it (corner: the pile's frame only; docs/numerics.md)",
     )
 
     def friction_coefficient(self, material: MaterialModel) -> float:
@@ -541,6 +542,10 @@ class Scenario(_Table):
             # fixed one per remap_courant of a cell, whatever the speed) then shakes all of it, and slow jacking
             # loses q_b (docs/validation.md, "r–z in the pile's frame"): remap after every step
             self.solver.remap_courant = 0.0
+        if self.domain.frame == "pile" and "rim" not in self.contact.model_fields_set:
+            # the node under the pile's corner split (docs/numerics.md, "The pile's frame"): with one node the
+            # soil beside the shaft is stretched there by about ½, whatever the cell size
+            self.contact.rim = "corner"
         depth = self.domain.soil_depth
         for i, layer in enumerate(self.soil.layers):
             if layer.top >= depth:
