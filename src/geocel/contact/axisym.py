@@ -291,8 +291,8 @@ def _split_trial(m_a, m_b, mtiny, v_c_trial, v_b_old, a_b, dt):
 
 @njit(**KERNEL_OPTIONS)
 def corner_rz(
-    ia, kc, hr, hz, rc, Vs, mass, stress, q, hg, nmass, v, v_old, fix, mtiny, gravity, vp, vs_k, mu, mu_b, dt,
-    corner, fn, ft, out, cw,
+    ia, kc, hr, hz, rc, Vs, mass, stress, q, hg, v, v_old, fix, mtiny, gravity, vp, vs_k, mu, mu_b, dt, corner, fn,
+    ft, out, cw,
 ):  # fmt: skip
     """The rim node (ia, kc) split at the pile's corner (``rim = "corner"``, module docstring), in place on v.
 
@@ -465,8 +465,8 @@ def contact_step_rz(
     project_pile_rz(ia, kc, t_edge, nmass, mass, v, fix, mtiny, vp, vs, mu, mu_b, rim, dt, fn, ft, out)
     if rim == 3:
         corner_rz(
-            ia, kc, hr, hz, rc, Vs, mass, stress, q, hg, nmass, v, v_old, fix, mtiny, gravity, vp, vs[kc], mu, mu_b,
-            dt, corner, fn, ft, out, cw,
+            ia, kc, hr, hz, rc, Vs, mass, stress, q, hg, v, v_old, fix, mtiny, gravity, vp, vs[kc], mu, mu_b, dt,
+            corner, fn, ft, out, cw,
         )  # fmt: skip
         v_trial[ia, kc, 0] = v[ia, kc, 0]  # (its work is in cw, not counted again below)
         v_trial[ia, kc, 1] = v[ia, kc, 1]
