@@ -35,15 +35,15 @@ Lagrangian phase (velocity projection with impulses, as in 3D, DESIGN.md §4.5):
   velocity — its velocity change is scaled by that fraction, about ½. "split" is not a constraint but a
   compromise: the punch limit is within 3 % of the converged value from 8 cells per radius on, but the rim
   node yields a little under a static load (a wished-in-place pile at rest creeps). In all three v_r ≥ 0
-  there (no soil into the pile under its corner). "corner" (the pile's frame only, :func:`corner_rz`)
-  splits the rim node in two vertically: the half of the cells r < a is a base node, the half of the cells
-  r > a a shaft node that slides along the pile with friction, sharing v_r ≥ 0. In the other three the soil
-  beside the shaft is pinned to the base at the corner while the shaft node above it slides with the soil:
-  the cell between them is stretched at about v/(2h) for the time h/v the soil takes to pass it, a volumetric
-  strain of about ½ whatever the cell size, a loosened (jacked sand: e up to 1.4 > e_i) or part-empty layer
-  one cell thick up the shaft. The split removes that; the cells left of the node see the inner half's
-  vertical velocity (:func:`geocel.euler.axisym.split_gradient_rz`), the others the outer half's, and the
-  remap does the same with the mesh motion (the pile's cells are inactive: no flux through their faces);
+  there (no soil into the pile under its corner). "corner" (the pile's frame only, and its default;
+  :func:`corner_rz`) splits the rim node between its three soil cells: the soil under the base's edge moves
+  with the base, the soil beside the shaft slides along it with friction (four velocities, each with the
+  mass and forces of its cells). In the other three the soil beside the shaft is pinned to the base at the
+  corner while the shaft node above it slides with the soil: the cell between them is stretched at about
+  v/(2h) for the time h/v the soil takes to pass it, a volumetric strain of about ½ whatever the cell size,
+  a loosened (jacked sand: e up to 1.4 > e_i) or part-empty layer one cell thick up the shaft. The split
+  removes that; each cell's strain (:func:`geocel.euler.axisym.split_gradient_rz`) and remap volume change
+  use its own corner velocity, and the pile's cells are inactive in the remap (no flux through their faces);
 * the pile receives −(impulse)/Δt: base and shaft forces per radian (× 2π for the pile), q_b = F_b,z/(πa²),
   q_s = F_s,z/(2πa L) with L the embedded length below z = 0.
 
@@ -202,7 +202,7 @@ def project_pile_rz(ia, kc, t_edge, nmass, cmass, v, fix, mtiny, vp, vs, mu, mu_
     ``vp``: the vertical velocity of the pile's base; ``vs`` (nz+1): the shaft's vertical velocity at every
     node row (a deformable pile's, interpolated between its levels; ``vp`` everywhere for a rigid one);
     ``mu`` and ``mu_b``: shaft and base friction; ``rim``: the base's condition at the corner r = a (0: not, 1: in full, 2: on the part of the rim nodes' mass under the base,
-    from the cells r < a of ``cmass``, the cell masses). Outputs (per radian, forces of the soil ON THE PILE,
+    from the cells r < a of ``cmass``, the cell masses; 3: none here, the node is split by :func:`corner_rz`). Outputs (per radian, forces of the soil ON THE PILE,
     N/rad): ``fn``/``ft`` (nz+1) the normal (≥ 0: pressure) and vertical friction force at every shaft node
     (0 elsewhere); ``out`` (6): base (r, z), shaft (r, z), Σ f·v_pile of the forces on the soil (their
     power on the pile's motion) and the number of constraints that acted."""
@@ -612,7 +612,7 @@ class AxisymmetricPileContact:
         self._z_frame = self._z_nodes[k]
         self.field.move_with()
         if self.rim == "corner":
-            # the pile's cells carry no flux in the remap: the corner's two halves move the faces under the base
+            # the pile's cells carry no flux in the remap: the corner's parts move the faces under the base
             # and beside the shaft differently, and the pile's faces must not carry soil either way
             self.field.active[: self.ia, k:] = False
 
