@@ -150,7 +150,7 @@ class AxisymmetricField(FieldBalances):
         #: same with the mesh motions in the remap; i < 0: none (geocel.euler.axisym.split_gradient_rz)
         self.split = NO_SPLIT.copy()
         self.remap_split = NO_SPLIT.copy()
-        #: the contact's correction to the kinetic energy of the step (J/rad; a split node's two halves)
+        #: the contact's correction to the kinetic energy of the step (J/rad; the parts of a split node)
         self.kinetic_correction = 0.0
         #: the grid's own vertical velocity in the laboratory (m/s; set every step by the contact in the pile's
         #: frame, :meth:`move_with`) and the laboratory elevation of its z = 0 (m)
