@@ -77,17 +77,23 @@ def pile(penetration: float, kind: str, only=None) -> None:
             info, z, qb, qs = run(kind, 10.0, penetration, Path(tmp), solver)
             b = np.interp(depths, z, qb)
             s = np.interp(depths, z, qs)
-            if ref is None:
-                ref = (b, s)
-            mpe_b = 100 * np.mean(np.abs(b / ref[0] - 1))
-            mpe_s = 100 * np.mean(np.abs(s / ref[1] - 1))
+            ref = ref or (b, s)
+            mpe_b, mpe_s = _report(name, b, s, ref, depths[-1], float(info["wall_s"]))
             worst_b, worst_s = max(worst_b, mpe_b), max(worst_s, mpe_s)
-            print(
-                f"{name:32s} MPE q_b {mpe_b:5.2f} %  MPE q_s {mpe_s:5.2f} %  q_b({depths[-1]:.1f} m) = "
-                f"{b[-1] / 1e6:.2f} MPa  q_s = {s[-1] / 1e3:.2f} kPa  ({info['wall_s']} s)",
-                flush=True,
-            )
     print(f"largest change: q_b {worst_b:.2f} %, q_s {worst_s:.2f} %")
+
+
+def _report(name: str, b, s, ref, depth: float, wall: float) -> tuple[float, float]:
+    """Print one variant's line: its MPE in q_b and q_s against ``ref`` (the default run's), and q_b, q_s at the
+    last depth; returns the two MPE (%)."""
+    mpe_b = 100 * np.mean(np.abs(b / ref[0] - 1))
+    mpe_s = 100 * np.mean(np.abs(s / ref[1] - 1))
+    print(
+        f"{name:32s} MPE q_b {mpe_b:5.2f} %  MPE q_s {mpe_s:5.2f} %  q_b({depth:.1f} m) = "
+        f"{b[-1] / 1e6:.2f} MPa  q_s = {s[-1] / 1e3:.2f} kPa  ({wall:.0f} s)",
+        flush=True,
+    )
+    return mpe_b, mpe_s
 
 
 def _rz_run(args) -> tuple:
@@ -128,20 +134,13 @@ def pile_rz(cells: int, penetration: float, only=None, jobs: int = 1) -> None:
     at_s = at_b[at_b >= 0.5 - 1e-9]
     with tempfile.TemporaryDirectory() as tmp, ProcessPoolExecutor(jobs) as pool:
         runs = list(pool.map(_rz_run, [(n, v, cells, penetration, tmp) for n, v in variants]))
-    ref_b = ref_s = None
+    ref = None
     worst_b = worst_s = 0.0
     for name, z, qb, qs, wall in runs:
         b, s = window(z, qb, at_b), window(z, qs, at_s)
-        if ref_b is None:
-            ref_b, ref_s = b, s
-        mpe_b = 100 * np.mean(np.abs(b / ref_b - 1))
-        mpe_s = 100 * np.mean(np.abs(s / ref_s - 1))
+        ref = ref or (b, s)
+        mpe_b, mpe_s = _report(name, b, s, ref, at_b[-1], wall)
         worst_b, worst_s = max(worst_b, mpe_b), max(worst_s, mpe_s)
-        print(
-            f"{name:32s} MPE q_b {mpe_b:5.2f} %  MPE q_s {mpe_s:5.2f} %  q_b({at_b[-1]:.1f} m) = "
-            f"{b[-1] / 1e6:.2f} MPa  q_s = {s[-1] / 1e3:.2f} kPa  ({wall:.0f} s)",
-            flush=True,
-        )
     print(f"largest change: q_b {worst_b:.2f} %, q_s {worst_s:.2f} %")
 
 
