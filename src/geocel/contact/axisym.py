@@ -270,12 +270,12 @@ def project_pile_rz(ia, kc, t_edge, nmass, cmass, v, fix, mtiny, vp, vs, mu, mu_
 
 
 @njit(**KERNEL_OPTIONS)
-def _split_velocity(m_a, m_b, v_c, w):
+def _split_velocity(m_a, m_b, mtiny, v_c, w):
     """The velocities of two parts (masses m_a, m_b) of a node with the mean velocity v_c and the relative
     velocity w = v_b − v_a; one part empty: both move with the node."""
-    m = m_a + m_b
-    if m_a <= 0.0 or m_b <= 0.0:
+    if m_a <= mtiny or m_b <= mtiny:
         return v_c, v_c
+    m = m_a + m_b
     return v_c - (m_b / m) * w, v_c + (m_a / m) * w
 
 
@@ -347,12 +347,10 @@ def corner_rz(
     vr_t = v[ia, kc, 0]
     vz_t = v[ia, kc, 1]
     # the four velocities before the nodal pass (from the node's and the relative ones) and their trials
-    zi_o, zo_o = _split_velocity(m_i, m_o, v_old[ia, kc, 1], corner[0])
-    ra_o, rb_o = _split_velocity(m_A, m_u, v_old[ia, kc, 0], corner[1])
+    zi_o, zo_o = _split_velocity(m_i, m_o, mtiny, v_old[ia, kc, 1], corner[0])
+    ra_o, rb_o = _split_velocity(m_A, m_u, mtiny, v_old[ia, kc, 0], corner[1])
     zi_t, zo_t = _split_trial(m_i, m_o, mtiny, vz_t, zo_o, (fzs + fzq + fzh) / max(m_o, mtiny) - gravity, dt)
     ra_t, rb_t = _split_trial(m_A, m_u, mtiny, vr_t, rb_o, (frs + frq + frh) / max(m_u, mtiny), dt)
-    if m_u <= mtiny:
-        rb_t = ra_t
     # shaft: Signorini on v_r^B, Coulomb friction on v_z^out with v_r^B's normal impulse
     drb = -rb_t if (rb_t < 0.0 and m_u > mtiny and not fix[ia, kc, 0]) else 0.0
     dzo = 0.0
