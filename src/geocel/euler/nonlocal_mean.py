@@ -22,7 +22,7 @@ Arrays are 3D, (n0, n1, n2); the r–z model passes views of shape (n_r, 1, n_z)
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import get_num_threads, njit, prange
 
 from ..materials.tensor import KERNEL_OPTIONS
 
@@ -112,7 +112,10 @@ def factor_from_mean(nd, out) -> None:
     with λ < 1/f_d(e_i) would have no critical state at any admissible density and would dilate without limit
     (measured: the cells along a jacked pile's shaft emptied, docs/numerics.md). With λ ≥ 1 every cell keeps at
     least its local nonlinear term, and the soil beside a band deforms plastically with it."""
-    _ratio(nd.reshape(-1), out.reshape(-1))
+    nd1 = nd.reshape(-1)
+    # blocks of cells, not cells: the run hands out parallel iterations one at a time (numba's chunk size 1,
+    # set for the row loops), which costs about 0.25 µs per iteration, 5 ms per step on 20 000 cells
+    _ratio(nd1, out.reshape(-1), max(1, min(nd1.size, 8 * get_num_threads())))
 
 
 def _pass(axis, lo, w, a, b, a_out, b_out) -> None:
@@ -171,7 +174,9 @@ def _pass_middle(lo, w, a, b, a_out, b_out):
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def _ratio(nd, out):
-    for c in prange(nd.size):
-        own = nd[c]
-        out[c] = min(max(out[c] / own, 1.0), MAX_FACTOR) if own > 0.0 else 1.0
+def _ratio(nd, out, nchunk):
+    n = nd.size
+    for ch in prange(nchunk):
+        for c in range(ch * n // nchunk, (ch + 1) * n // nchunk):
+            own = nd[c]
+            out[c] = min(max(out[c] / own, 1.0), MAX_FACTOR) if own > 0.0 else 1.0
