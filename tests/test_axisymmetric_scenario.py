@@ -231,8 +231,11 @@ def test_cli_preset_and_run(tmp_path):
     assert res.exit_code == 0 and "# Runtime:" in res.output
     sc = scenario_from_dict(tomllib.loads(res.output))
     assert sc.domain.symmetry == "axisymmetric" and sc.pile.type == "rigid"
+    # the model of the grid study: the pile's frame (with its split corner) and the non-local sand
+    assert sc.domain.frame == "pile" and sc.contact.rim == "corner" and sc.soil.material.nonlocal_length == 0.1
+    assert sc.domain.void_height >= sc.loading.penetration + sc.pile.diameter - 1e-9
     n = sc.pile.diameter / 2 / sc.domain.fine_size
-    assert n == pytest.approx(round(n), abs=1e-9) and round(n) == 3
+    assert n == pytest.approx(round(n), abs=1e-9) and round(n) == 6
     fine = scenario_from_dict(
         tomllib.loads(
             CliRunner()

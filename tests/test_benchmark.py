@@ -101,10 +101,10 @@ def test_the_axisymmetric_benchmark_writes_its_tables_and_leaves_the_physics_alo
     report = (out / "report.md").read_text()
     assert (
         "axisymmetric (r–z) model" in report
-        and "resolution `demo` (0.1 m cells at the pile, 3 per pile" in report
+        and "resolution `demo` (0.05 m cells at the pile, 6 per pile" in report
     )
     assert "×4" not in report and "quarter" not in report and "multiplied by 4" not in report
-    assert "one grid cell of tip depth (0.1 m)" in report and "≤ 0.02% valid" in report
+    assert "one grid cell of tip depth (0.05 m)" in report and "≤ 0.02% valid" in report
 
     d = preset_dict("deeks-white", symmetry="axisymmetric", resolution="demo", penetration=pen, velocity=v,
                     pile="rigid", scaling=1)  # fmt: skip
