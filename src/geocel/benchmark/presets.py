@@ -42,7 +42,7 @@ AXISYMMETRIC_RESOLUTIONS = {
     "paper": {"fine_size": 0.0125, "fine_radius": 1.2, "fine_depth": 1.5, "growth": 1.15},  # 24
 }
 #: what the axisymmetric preset changes in the model besides the grid: that of the grid study (docs/validation.md,
-#: "The split corner"), the one in which q_b and q_s converge: the grid moves with the pile's base (the corner
+#: "The split corner"), whose convergence is measured there: the grid moves with the pile's base (the corner
 #: split, the default there) and the sand is non-local with the internal length l (m; the local sand's q_b
 #: changes by 13–21 % per halving of the cells)
 AXISYMMETRIC_MODEL = {"frame": "pile", "nonlocal_length": 0.1}
