@@ -1,5 +1,6 @@
-"""Solid and coupled piles in the axisymmetric (r–z) mode (issue 17, item 3): the 3D pile bodies of
-geocel.bodies.pile behind the r–z contact, which reads their levels' velocities and hands back per-level loads.
+"""Solid and coupled piles in the axisymmetric (r–z) mode (issue 17, item 3): the pile bodies of
+geocel.bodies.pile with r–z rings (geocel.bodies.axisym) behind the r–z contact, which reads their levels'
+velocities and hands back per-level loads; and the ring element itself.
 
 Tiny grids (a few hundred cells), one thread: about 1–3 s per test with a warm Numba cache.
 """
@@ -127,8 +128,8 @@ def test_steel_coupled_and_solid_piles_follow_the_rigid_pile(tmp_path):
     """Steel piles (E A / L = 6.6 GN/m against a soil reaction of a few MN/m: rigid to 10⁻⁵ of the jacking
     displacement) jacked 3 cm from 0.1 m through Simulation in r–z: q_b(z) and q_s(z) of the coupled pile
     within 5 % of the rigid pile's after the ramp (measured: q_b 2.8 %, mean 1.0 %; q_s 2.3 %; its global Δt
-    is the beam's, 6× smaller than the soil's), and of the subcycled solid pile (0.1 m elements, about 100
-    substeps) within 3 % (measured: q_b 0.37 %, q_s 0.15 %). The jack's force averages the soil's over the
+    is the beam's, 6× smaller than the soil's), and of the subcycled solid pile (0.1 m rings, 18 substeps)
+    within 3 % (measured: q_b 0.37 %, q_s 0.16 %). The jack's force averages the soil's over the
     last third (measured +0.2 %, −0.4 %). Both finish with the soil out of the pile."""
     s_r, rigid = _run(tmp_path, "rigid")
     s_c, coupled = _run(tmp_path, "coupled")
@@ -161,9 +162,9 @@ def test_steel_coupled_and_solid_piles_follow_the_rigid_pile(tmp_path):
 def test_coupled_pile_head_force_balances_the_contact_load_and_the_inertia():
     """The beam of a coupled pile in r–z, step by step over 0.08 s (ramp 0.04 s, then 0.5 m/s): the jack's
     force H (from the beam's internal force at the head) = F_base + F_shaft − Σ m Δv/Δt of the free beam
-    nodes, with F the contact load the pile received for that step (the whole pile: × 4 of the quarter
-    body). The dummy layer's own stiffness at the head level is left out of H, so the dummy is made 10⁻⁶ of
-    the steel: residual ≤ 10⁻⁵ |H|max (measured 1.3e-6; 6.7e-4 with the default 5e-4 dummy). After the
+    nodes, with F the contact load the pile received for that step (the whole pile: the r–z body is the whole
+    ring). The dummy layer's own stiffness at the head level is left out of H, so the dummy is made 10⁻⁶ of
+    the steel: residual ≤ 10⁻⁵ |H|max (measured 1.4e-6; 6.7e-4 with the default 5e-4 dummy). After the
     ramp the bar rings axially (period 4L/c ≈ 2.4 ms: the inertia reaches 24 % of H) about the soil's force:
     over the last 0.03 s the inertia averages ≤ 2 % of H (measured 0.1 %)."""
     sc = scenario_from_dict(_scenario("coupled", dummy={"modulus_ratio": 1e-6}))
@@ -171,7 +172,7 @@ def test_coupled_pile_head_force_balances_the_contact_load_and_the_inertia():
     pile = b.pile
     beam = pile.beam
     k = pile.symmetry_factor
-    assert k == 4 and pile.kind == "coupled"
+    assert k == 1 and pile.kind == "coupled"
     free = np.ones(beam.n_nodes, dtype=bool)
     free[-1] = False  # the head node: its velocity is prescribed
     rows = []
@@ -207,3 +208,20 @@ def test_restart_of_a_coupled_pile_gives_the_same_history(tmp_path):
     b = read_history(tmp_path / "part" / "history.csv").drop(columns="wall_time")
     assert len(a) == len(b) > 3
     np.testing.assert_array_equal(a.to_numpy(), b.to_numpy())
+
+
+def test_the_rings_of_a_solid_pile_go_to_paraview(tmp_path):
+    """The pile's .vtu in r–z holds its rings (flat hexahedra in the r–z plane) with their stresses; after
+    2 cm of jacking the steel is in compression (mean σ_zz < 0)."""
+    import re
+
+    sim = Simulation(
+        scenario_from_dict(_scenario("solid", penetration=0.02)), out=tmp_path / "s", progress=False
+    )
+    s = sim.run()
+    last = sorted((tmp_path / "s").rglob("pile_*.vtu"))[-1]
+    head = last.read_bytes().split(b"<AppendedData")[0].decode()
+    assert f'NumberOfCells="{s["pile_elements"]}"' in head
+    names = re.findall(r'Name="(\w+)"', head)
+    assert {"stress_rr", "stress_tt", "stress_zz", "stress_rz", "displacement", "velocity"} <= set(names)
+    assert sim.backend.pile.body.stress[..., 2].mean() < 0.0

@@ -26,20 +26,20 @@ import numpy as np
 from numba import njit
 
 from ..materials.tensor import KERNEL_OPTIONS
+from .axisym import volume_body
 from .beam import BeamSection, TimoshenkoBeam
 from .geometry import PileMesh
-from .solid import SolidBody
 
 
 def symmetry_fixed_dofs(symmetry: str, n_nodes: int) -> np.ndarray:
     """(n, 6) bool mask of beam DOFs held by the symmetry planes x = 0 and/or y = 0 through the axis."""
     fixed = np.zeros((n_nodes, 6), dtype=bool)
-    if symmetry == "quarter":
+    if symmetry in ("quarter", "axisymmetric"):
         fixed[:, [0, 1, 3, 4, 5]] = True  # only the axial displacement is free
     elif symmetry == "half":  # plane y = 0: u_y = 0, rotations about x and z vanish
         fixed[:, [1, 3, 5]] = True
     elif symmetry != "full":
-        raise ValueError(f"symmetry = {symmetry!r}: expected quarter, half or full")
+        raise ValueError(f"symmetry = {symmetry!r}: expected quarter, half, full or axisymmetric")
     return fixed
 
 
@@ -129,12 +129,8 @@ class CoupledPile:
             shear_area_y=section.shear_area_y / k,
         )
         self.beam = TimoshenkoBeam(np.asarray(mesh.layer_z, dtype=float), self.section, rotary_scaling)
-        self.volume = SolidBody(
-            mesh.nodes,
-            mesh.hexes,
-            section.E * dummy_modulus_ratio,
-            section.nu,
-            section.density * dummy_density_ratio,
+        self.volume = volume_body(
+            mesh, section.E * dummy_modulus_ratio, section.nu, section.density * dummy_density_ratio
         )
         self.layer = np.ascontiguousarray(mesh.layer_of_node, dtype=np.int64)
         self.r0 = mesh.nodes - np.column_stack(
@@ -215,22 +211,6 @@ class CoupledPile:
             self.beam.v[node, dof] = value
             self.beam.u[node, dof] += value * dt
         place_tied_nodes(self.layer, self.r0, self.beam.z, self.beam.u, self.beam.v, vol.x, vol.v)
-        from .solid import update_elements, update_elements_parallel
-
-        update = update_elements_parallel if vol.parallel else update_elements
-        update(
-            vol.x,
-            vol.v,
-            vol.hexes,
-            dt,
-            vol.element_mass,
-            vol.lam,
-            vol.mu,
-            vol.b1,
-            vol.b2,
-            vol.stress,
-            vol.q,
-            vol.rate_v,
-        )
+        vol.update(dt)
         vol.time += dt
         return f_int

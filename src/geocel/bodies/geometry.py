@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PileGeometry", "PileMesh", "pile_mesh", "hex_volumes", "SYMMETRY_FACTOR"]
+__all__ = ["PileGeometry", "LevelledMesh", "PileMesh", "pile_mesh", "hex_volumes", "SYMMETRY_FACTOR"]
 
 #: multiplier from the modelled part to the whole pile
 SYMMETRY_FACTOR = {"quarter": 4, "half": 2, "full": 1}
@@ -155,8 +155,31 @@ def hex_volumes(nodes: np.ndarray, hexes: np.ndarray) -> np.ndarray:
     return vol
 
 
+class LevelledMesh:
+    """The levels of a pile mesh (``layer_z`` (n_levels,) elevations, ``layer_of_node`` (n,) each node's level,
+    0 at the tip), shared by the 3D and the r–z meshes."""
+
+    layer_z: np.ndarray
+    layer_of_node: np.ndarray
+
+    @property
+    def n_layers(self) -> int:
+        """Number of cross-section levels (element layers + 1)."""
+        return int(self.layer_z.shape[0])
+
+    def layer_nodes(self, k: int) -> np.ndarray:
+        """Indices of the nodes of cross-section level k (negative k counts from the head)."""
+        k = range(self.n_layers)[k]
+        return np.flatnonzero(self.layer_of_node == k)
+
+    @property
+    def head_nodes(self) -> np.ndarray:
+        """Nodes of the top level (the pile head)."""
+        return self.layer_nodes(-1)
+
+
 @dataclass
-class PileMesh:
+class PileMesh(LevelledMesh):
     """Hexahedral mesh of a pile (see the module docstring for the topology).
 
     nodes (n, 3) m; hexes (m, 8) C3D8 order; layer_of_node (n,) index of the cross-section level (0 at the
@@ -183,23 +206,22 @@ class PileMesh:
         return SYMMETRY_FACTOR[self.symmetry]
 
     @property
-    def n_layers(self) -> int:
-        """Number of cross-section levels (element layers + 1)."""
-        return int(self.layer_z.shape[0])
+    def n_elements(self) -> int:
+        return int(self.hexes.shape[0])
 
     def volume(self) -> float:
         """Volume of the modelled part (m³)."""
         return float(hex_volumes(self.nodes, self.hexes).sum())
 
-    def layer_nodes(self, k: int) -> np.ndarray:
-        """Indices of the nodes of cross-section level k (negative k counts from the head)."""
-        k = range(self.n_layers)[k]
-        return np.flatnonzero(self.layer_of_node == k)
-
-    @property
-    def head_nodes(self) -> np.ndarray:
-        """Nodes of the top level (the pile head)."""
-        return self.layer_nodes(-1)
+    def surface_weights(self) -> tuple[np.ndarray, np.ndarray]:
+        """Tributary base and shaft areas of every node (m²): a quarter of each adjacent surface face."""
+        area = self.face_areas()
+        wb = np.zeros(self.nodes.shape[0])
+        ws = np.zeros(self.nodes.shape[0])
+        for kind, w in ((0, wb), (1, ws)):
+            sel = self.face_kind == kind
+            np.add.at(w, self.surface_faces[sel].ravel(), np.repeat(area[sel] / 4.0, 4))
+        return wb, ws
 
     def symmetry_nodes(self) -> dict[str, np.ndarray]:
         """Nodes on the symmetry planes: {"x": nodes with x = 0 (fix u_x), "y": nodes with y = 0 (fix u_y)}."""

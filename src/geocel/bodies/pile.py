@@ -23,10 +23,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .axisym import RZPileMesh, rz_pile_mesh, volume_body
 from .beam import BeamSection
 from .coupled import CoupledPile
 from .geometry import PileGeometry, PileMesh, pile_mesh
-from .solid import SolidBody
 
 
 @dataclass
@@ -99,7 +99,7 @@ class PileBody:
     def __init__(self, geometry: PileGeometry, symmetry: str, n_levels: int) -> None:
         self.geometry = geometry
         self.symmetry = symmetry
-        self.symmetry_factor = {"quarter": 4, "half": 2, "full": 1}[symmetry]
+        self.symmetry_factor = {"quarter": 4, "half": 2, "full": 1, "axisymmetric": 1}[symmetry]
         self.load = ContactLoad.zero(n_levels)
         #: jacking force at the head of the modelled part (N, positive = compression)
         self.head_force = 0.0
@@ -212,24 +212,13 @@ class RigidPile(PileBody):
         self.time += dt
 
 
-def _surface_weights(mesh: PileMesh) -> tuple[np.ndarray, np.ndarray]:
-    """Tributary base and shaft areas of every node (m²): a quarter of each adjacent surface face."""
-    area = mesh.face_areas()
-    wb = np.zeros(mesh.nodes.shape[0])
-    ws = np.zeros(mesh.nodes.shape[0])
-    for kind, w in ((0, wb), (1, ws)):
-        sel = mesh.face_kind == kind
-        np.add.at(w, mesh.surface_faces[sel].ravel(), np.repeat(area[sel] / 4.0, 4))
-    return wb, ws
-
-
 class _MeshedPile(PileBody):
     """Shared by the solid and the coupled pile: spreading of the contact load over the mesh surface."""
 
-    def __init__(self, mesh: PileMesh) -> None:
+    def __init__(self, mesh: PileMesh | RZPileMesh) -> None:
         super().__init__(mesh.geometry, mesh.symmetry, mesh.n_layers)
         self.mesh = mesh
-        wb, ws = _surface_weights(mesh)
+        wb, ws = mesh.surface_weights()
         lay = mesh.layer_of_node
         nl = mesh.n_layers
         self._wb = wb / wb.sum()
@@ -238,7 +227,7 @@ class _MeshedPile(PileBody):
         self._ws = np.where(ws > 0, ws / np.maximum(tot[lay], 1e-300), 0.0)
         r = np.hypot(mesh.nodes[:, 0], mesh.nodes[:, 1])
         self._er = np.where(r[:, None] > 0, mesh.nodes[:, :2] / np.maximum(r, 1e-300)[:, None], 0.0)
-        self.n_elements = int(mesh.hexes.shape[0])
+        self.n_elements = mesh.n_elements
         self._f = np.zeros((mesh.nodes.shape[0], 3))
         self._f_of = None  # the load that self._f was spread from (substeps reuse it)
 
@@ -278,13 +267,16 @@ class _MeshedPile(PileBody):
 
 
 class SolidPile(_MeshedPile):
-    """The conventional pile: linear-elastic hexahedra (:class:`geocel.bodies.solid.SolidBody`)."""
+    """The conventional pile: linear-elastic hexahedra (:class:`geocel.bodies.solid.SolidBody`), or rings in
+    r–z (:class:`geocel.bodies.axisym.AxisymmetricBody`)."""
 
     kind = "solid"
 
-    def __init__(self, mesh: PileMesh, youngs_modulus: float, poisson_ratio: float, density: float) -> None:
+    def __init__(
+        self, mesh: PileMesh | RZPileMesh, youngs_modulus: float, poisson_ratio: float, density: float
+    ) -> None:
         super().__init__(mesh)
-        self.body = SolidBody.from_mesh(mesh, youngs_modulus, poisson_ratio, density)
+        self.body = volume_body(mesh, youngs_modulus, poisson_ratio, density)
         fixed = np.zeros((mesh.nodes.shape[0], 3), dtype=bool)
         sym = mesh.symmetry_nodes()
         fixed[sym["x"], 0] = True
@@ -480,18 +472,18 @@ def build_pile(
 ) -> PileBody:
     """A pile body of ``kind`` "rigid" | "solid" | "coupled" (density already MGS-scaled if wanted).
 
-    ``element_size`` (m): hexahedron size of the solid pile and of the coupled pile's cross-section;
+    ``symmetry``: "quarter", "half", "full", or "axisymmetric" (the r–z rings of :mod:`geocel.bodies.axisym`);
+    ``element_size`` (m): element size of the solid pile and of the coupled pile's cross-section;
     ``beam_element_length`` (m): beam element length of the coupled pile, which is also the height of its
     volume layers (default: one pile diameter — the beam's stable step is L/√(E/ρ), so short beam elements
     would throw away the method's advantage)."""
     if kind == "rigid":
         return RigidPile(geometry, symmetry)
-    if kind == "coupled":
-        mesh = pile_mesh(
-            geometry, element_size, symmetry, axial_size=beam_element_length or geometry.diameter
-        )
+    axial = (beam_element_length or geometry.diameter) if kind == "coupled" else None
+    if symmetry == "axisymmetric":
+        mesh = rz_pile_mesh(geometry, element_size, axial_size=axial)
     else:
-        mesh = pile_mesh(geometry, element_size, symmetry)
+        mesh = pile_mesh(geometry, element_size, symmetry, axial_size=axial)
     if kind == "solid":
         return SolidPile(mesh, youngs_modulus, poisson_ratio, density)
     if kind == "coupled":

@@ -58,6 +58,7 @@ from ..materials.tensor import KERNEL_OPTIONS, co_rotate_tuple
 from .geometry import PileMesh
 
 __all__ = [
+    "ExplicitBody",
     "SolidBody",
     "gradient_operator",
     "element_forces",
@@ -407,7 +408,13 @@ def element_volumes(x, hexes, out):
 
 
 def _check(
-    name: str, value: float, lo: float, hi: float, lo_open: bool = True, hi_open: bool = True
+    name: str,
+    value: float,
+    lo: float,
+    hi: float,
+    lo_open: bool = True,
+    hi_open: bool = True,
+    owner: str = "SolidBody",
 ) -> float:
     value = float(value)
     ok = (
@@ -418,11 +425,98 @@ def _check(
     if not ok:
         lb = "(" if lo_open else "["
         rb = ")" if hi_open else "]"
-        raise ValueError(f"SolidBody: {name} must be in {lb}{lo}, {hi}{rb}, got {value!r}")
+        raise ValueError(f"{owner}: {name} must be in {lb}{lo}, {hi}{rb}, got {value!r}")
     return value
 
 
-class SolidBody:
+class ExplicitBody:
+    """The central-difference step shared by the pile bodies: a subclass holds x, x0, v (n, 3), the lumped
+    mass (n,), and provides :meth:`internal_forces` (at xⁿ, with v^{n−½} for the rate terms) and
+    :meth:`update` (the element state after the move)."""
+
+    x: np.ndarray
+    x0: np.ndarray
+    v: np.ndarray
+    mass: np.ndarray
+    time: float
+
+    def _set_material(
+        self, youngs_modulus: float, poisson_ratio: float, density: float, bulk_viscosity: tuple[float, float]
+    ) -> None:
+        """E (Pa) > 0, ν in (−1, ½), ρ (kg/m³) > 0, bulk viscosity (b₁, b₂) ≥ 0, checked; λ, μ and the
+        constrained (P-wave) modulus M = λ + 2μ."""
+        who = type(self).__name__
+        self.E = _check("youngs_modulus", youngs_modulus, 0.0, math.inf, owner=who)
+        self.nu = _check("poisson_ratio", poisson_ratio, -1.0, 0.5, owner=who)
+        self.rho = _check("density", density, 0.0, math.inf, owner=who)
+        if len(bulk_viscosity) != 2:
+            raise ValueError(f"{who}: bulk_viscosity must be a pair (b1, b2), got {bulk_viscosity!r}")
+        self.b1 = _check("bulk_viscosity[0]", bulk_viscosity[0], 0.0, math.inf, lo_open=False, owner=who)
+        self.b2 = _check("bulk_viscosity[1]", bulk_viscosity[1], 0.0, math.inf, lo_open=False, owner=who)
+        self.lam = self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
+        self.mu = 0.5 * self.E / (1.0 + self.nu)
+        self.modulus = self.lam + 2.0 * self.mu
+
+    def internal_forces(self) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def update(self, dt: float) -> None:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    @property
+    def n_nodes(self) -> int:
+        return self.x.shape[0]
+
+    @property
+    def displacement(self) -> np.ndarray:
+        """x − x₀ (m)."""
+        return self.x - self.x0
+
+    def kinetic_energy(self) -> float:
+        """½ Σ m v² (J) of the stored (half-step) velocities."""
+        return float(0.5 * np.sum(self.mass[:, None] * self.v**2))
+
+    def step(
+        self,
+        dt: float,
+        f_ext: np.ndarray | None = None,
+        fixed: np.ndarray | None = None,
+        prescribed_velocity: tuple[np.ndarray, np.ndarray] | None = None,
+        damper: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
+        """One central-difference step of Δt (s).
+
+        f_ext (n, 3) N: external nodal forces at tⁿ; fixed (n, 3) bool: DOFs held at zero velocity;
+        prescribed_velocity (nodes, values): values (k, 3) or (3,) in m/s imposed as v^{n+½} on the given
+        nodes, a NaN component leaves that DOF free; damper (c, v₀), both (n, 3): an external force
+        −c (v^{n+½} − v₀) (c in N s/m ≥ 0), taken implicitly (stable for any c).
+        """
+        dt = float(dt)
+        if not math.isfinite(dt) or dt <= 0.0:
+            raise ValueError(f"{type(self).__name__}.step: dt must be a finite positive time (s), got {dt!r}")
+        f = self.internal_forces()
+        if f_ext is not None:
+            f = f + f_ext
+        if damper is None:
+            self.v += (dt / self.mass)[:, None] * f
+        else:
+            c, v0 = damper
+            m = self.mass[:, None]
+            self.v[...] = (m * self.v + dt * (f + c * v0)) / (m + dt * c)
+        if fixed is not None:
+            self.v[fixed] = 0.0
+        if prescribed_velocity is not None:
+            idx, val = prescribed_velocity
+            idx = np.asarray(idx, dtype=np.int64)
+            val = np.broadcast_to(np.asarray(val, dtype=float), (idx.size, 3))
+            cur = self.v[idx]
+            self.v[idx] = np.where(np.isnan(val), cur, val)
+        self.x += dt * self.v
+        self.update(dt)
+        self.time += dt
+
+
+class SolidBody(ExplicitBody):
     """Linear-elastic hexahedral body for explicit dynamics (see the module docstring).
 
     nodes (n, 3) m; hexes (m, 8) C3D8 node order (positive volume); youngs_modulus E (Pa) > 0;
@@ -442,17 +536,8 @@ class SolidBody:
         bulk_viscosity: tuple[float, float] = (0.06, 1.2),
         parallel: bool | None = None,
     ) -> None:
-        self.E = _check("youngs_modulus", youngs_modulus, 0.0, math.inf)
-        self.nu = _check("poisson_ratio", poisson_ratio, -1.0, 0.5)
-        self.rho = _check("density", density, 0.0, math.inf)
+        self._set_material(youngs_modulus, poisson_ratio, density, bulk_viscosity)
         self.hourglass = _check("hourglass", hourglass, 0.0, math.inf, lo_open=False)
-        if len(bulk_viscosity) != 2:
-            raise ValueError(f"SolidBody: bulk_viscosity must be a pair (b1, b2), got {bulk_viscosity!r}")
-        self.b1 = _check("bulk_viscosity[0]", bulk_viscosity[0], 0.0, math.inf, lo_open=False)
-        self.b2 = _check("bulk_viscosity[1]", bulk_viscosity[1], 0.0, math.inf, lo_open=False)
-        self.lam = self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
-        self.mu = 0.5 * self.E / (1.0 + self.nu)
-        self.modulus = self.lam + 2.0 * self.mu  # constrained (P-wave) modulus M
 
         x = np.ascontiguousarray(nodes, dtype=float)
         hexes = np.ascontiguousarray(hexes, dtype=np.int64)
@@ -507,17 +592,8 @@ class SolidBody:
         return cls(mesh.nodes, mesh.hexes, youngs_modulus, poisson_ratio, density, **kw)
 
     @property
-    def n_nodes(self) -> int:
-        return self.x.shape[0]
-
-    @property
     def n_elements(self) -> int:
         return self.hexes.shape[0]
-
-    @property
-    def displacement(self) -> np.ndarray:
-        """x − x₀ (m)."""
-        return self.x - self.x0
 
     def _volumes(self, x: np.ndarray) -> np.ndarray:
         out = np.empty(self.hexes.shape[0])
@@ -559,42 +635,8 @@ class SolidBody:
         e = int(np.argmin(dts))
         return float(dts[e]), e
 
-    def step(
-        self,
-        dt: float,
-        f_ext: np.ndarray | None = None,
-        fixed: np.ndarray | None = None,
-        prescribed_velocity: tuple[np.ndarray, np.ndarray] | None = None,
-        damper: tuple[np.ndarray, np.ndarray] | None = None,
-    ) -> None:
-        """One central-difference step of Δt (s).
-
-        f_ext (n, 3) N: external nodal forces at tⁿ; fixed (n, 3) bool: DOFs held at zero velocity;
-        prescribed_velocity (nodes, values): values (k, 3) or (3,) in m/s imposed as v^{n+½} on the given
-        nodes, a NaN component leaves that DOF free; damper (c, v₀), both (n, 3): an external force
-        −c (v^{n+½} − v₀) (c in N s/m ≥ 0), taken implicitly (stable for any c).
-        """
-        dt = float(dt)
-        if not math.isfinite(dt) or dt <= 0.0:
-            raise ValueError(f"SolidBody.step: dt must be a finite positive time (s), got {dt!r}")
-        f = self.internal_forces()
-        if f_ext is not None:
-            f = f + f_ext
-        if damper is None:
-            self.v += (dt / self.mass)[:, None] * f
-        else:
-            c, v0 = damper
-            m = self.mass[:, None]
-            self.v[...] = (m * self.v + dt * (f + c * v0)) / (m + dt * c)
-        if fixed is not None:
-            self.v[fixed] = 0.0
-        if prescribed_velocity is not None:
-            idx, val = prescribed_velocity
-            idx = np.asarray(idx, dtype=np.int64)
-            val = np.broadcast_to(np.asarray(val, dtype=float), (idx.size, 3))
-            cur = self.v[idx]
-            self.v[idx] = np.where(np.isnan(val), cur, val)
-        self.x += dt * self.v
+    def update(self, dt: float) -> None:
+        """Stress, bulk viscosity and volumetric rate of every element from x^{n+1} and v^{n+½}."""
         update = update_elements_parallel if self.parallel else update_elements
         update(
             self.x,
@@ -610,7 +652,6 @@ class SolidBody:
             self.q,
             self.rate_v,
         )
-        self.time += dt
 
     def strain_energy(self) -> float:
         """Elastic strain energy Σ V ½ σ:C⁻¹:σ = Σ V ((1+ν) σ:σ − ν (tr σ)²)/(2E) (J), current volumes."""
@@ -619,10 +660,6 @@ class SolidBody:
         tr = s[:, 0] + s[:, 1] + s[:, 2]
         vol = self._volumes(self.x)
         return float(np.sum(vol * ((1.0 + self.nu) * ss - self.nu * tr * tr)) / (2.0 * self.E))
-
-    def kinetic_energy(self) -> float:
-        """½ Σ m v² (J) of the stored (half-step) velocities."""
-        return float(0.5 * np.sum(self.mass[:, None] * self.v**2))
 
     def gradient_operators(self) -> np.ndarray:
         """B (m, 8, 3) (m²) of every element at the current configuration (for analysis and tests)."""

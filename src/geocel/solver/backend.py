@@ -323,8 +323,8 @@ class CartesianBackend(Backend):
 
 class AxisymmetricBackend(Backend):
     """The r–z model: :class:`~geocel.grid.axisym.AxisymmetricGrid` from the ``[domain]`` keys, the rigid pile
-    of :mod:`geocel.contact.axisym` or a solid or coupled pile body of :mod:`geocel.bodies.pile` (a quarter
-    model; subcycled as in 3D), its radius a node line of the grid; shaft friction and base friction μ, base
+    of :mod:`geocel.contact.axisym` or a solid or coupled pile body of :mod:`geocel.bodies.pile` in r–z rings
+    (:mod:`geocel.bodies.axisym`; subcycled as in 3D), its radius a node line of the grid; shaft friction and base friction μ, base
     formulation ``[contact] formulation``. A pile embedded at the start is wished in place after the
     geostatic state is built (the soil below its base keeps its overburden stress)."""
 
@@ -368,12 +368,11 @@ class AxisymmetricBackend(Backend):
             if p.type == "rigid":
                 pile = RigidPileRZ(0.5 * p.diameter, -p.initial_embedment)
             else:
-                # the 3D body as it is (physics written once); a quarter model carries the axisymmetric load
-                # exactly (the contact hands it a quarter of the whole pile's forces) and holds its beam or
-                # mesh to the vertical modes (no bending from round-off)
+                # the solid pile's steel, or the coupled pile's dummy layer, as r–z rings (bodies.axisym); the
+                # bodies' loop, contact load and coupling are the 3D ones
                 from .simulation import build_pile_body
 
-                pile = build_pile_body(scenario, symmetry="quarter")
+                pile = build_pile_body(scenario, symmetry="axisymmetric")
             self.contact = AxisymmetricPileContact(
                 f,
                 pile,
@@ -423,9 +422,8 @@ class AxisymmetricBackend(Backend):
         c = self.contact
         if self._body:
             self._advance_body(dt, velocity, ramp, substeps)
-            k = self.pile.symmetry_factor  # (the body is a quarter model: its head force × 4)
-            self.head_force = float(self.pile.head_force) * k
-            self.jack_work = float(self.pile.work) * k
+            self.head_force = float(self.pile.head_force)  # (the r–z bodies are whole rings)
+            self.jack_work = float(self.pile.work)
             return float(c.base_force[1]), float(c.shaft_force[1]), self.head_force
         v_head = head_velocity(f.time + 0.5 * dt, velocity, ramp)
         self.pile.advance(dt, v_head)
@@ -460,7 +458,7 @@ class AxisymmetricBackend(Backend):
         return {
             "pile_type": self.pile.kind if self._body else "rigid",
             "pile_elements": self.pile.n_elements if self._body else 0,
-            "pile_model": "quarter (axisymmetric load)" if self._body else "r–z",
+            "pile_model": "r–z",
             "symmetry_factor": 1,
             "friction_coefficient": c.mu,
             "soil_moved_out_of_pile": 0.0,  # (nothing is relocated in r–z: see soil_inside_pile)
@@ -517,16 +515,28 @@ class AxisymmetricBackend(Backend):
             point_data={"velocity": f.v},
         )
         out = [(soil, 0)]
-        if self.pile is not None:  # the pile's half-section r ≤ a as a flat hexahedron in the same plane
+        if self.pile is not None:
+            pts, hexes, cd, pd = self._pile_vtu()
+            out.append((write_unstructured_hex(run_dir.field_path("pile", index), pts, hexes, cd, pd), 1))
+        return out
+
+    def _pile_vtu(self) -> tuple[np.ndarray, np.ndarray, dict | None, dict]:
+        """The pile's half-section r ≤ a in the r–z plane as flat hexahedra (each node twice): the rigid pile
+        as one, a body as its rings with their mean stress (rr, θθ, zz, rz; Pa) and the steel's or the
+        coupled pile's dummy layer's displacement and velocity."""
+        if not self._body:
             a, zb = self.contact.radius, self.contact.z_base
             zt = zb + self.geometry.length
-            quad = [(0.0, zb), (a, zb), (a, zt), (0.0, zt)]
-            pts = np.array([(r, 0.0, z) for r, z in quad] * 2)
-            shift = zb - self.geometry.z_tip
-            pd = {"displacement": np.tile([0.0, 0.0, shift], (8, 1))}
-            hexes = np.arange(8)[None, :]
-            out.append((write_unstructured_hex(run_dir.field_path("pile", index), pts, hexes, None, pd), 1))
-        return out
+            pts = np.array([(0.0, 0.0, zb), (a, 0.0, zb), (a, 0.0, zt), (0.0, 0.0, zt)])
+            shift = np.tile([0.0, 0.0, zb - self.geometry.z_tip], (8, 1))
+            return np.vstack([pts, pts]), np.arange(8)[None, :], None, {"displacement": shift}
+        body = self.pile.body.volume if self.pile.kind == "coupled" else self.pile.body
+        n = body.x.shape[0]
+        hexes = np.hstack([body.quads, body.quads + n])
+        s = body.stress.mean(axis=1)
+        cd = {f"stress_{c}": s[:, i].copy() for i, c in enumerate(("rr", "tt", "zz", "rz"))}
+        pd = {"displacement": np.tile(body.x - body.x0, (2, 1)), "velocity": np.tile(body.v, (2, 1))}
+        return np.vstack([body.x, body.x]), hexes, cd, pd
 
 
 def build_backend(scenario: Scenario) -> Backend:
