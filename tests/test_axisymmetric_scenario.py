@@ -233,6 +233,7 @@ def test_cli_preset_and_run(tmp_path):
     assert sc.domain.symmetry == "axisymmetric" and sc.pile.type == "rigid"
     # the model of the grid study: the pile's frame (with its split corner) and the non-local sand
     assert sc.domain.frame == "pile" and sc.contact.rim == "corner" and sc.soil.material.nonlocal_length == 0.1
+    assert sc.pile.element_size == pytest.approx(sc.pile.diameter / 6)  # (rings of a third of the radius)
     assert sc.domain.void_height >= sc.loading.penetration + sc.pile.diameter - 1e-9
     n = sc.pile.diameter / 2 / sc.domain.fine_size
     assert n == pytest.approx(round(n), abs=1e-9) and round(n) == 6
