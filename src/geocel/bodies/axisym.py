@@ -312,11 +312,6 @@ class AxisymmetricBody(ExplicitBody):
         xi = self.b1 - self.b2**2 * tau * np.minimum(self.rate_v.min(axis=1), 0.0)
         return tau * (np.sqrt(1.0 + xi * xi) - xi)
 
-    def stable_time_step(self) -> tuple[float, int]:
-        dts = self.element_time_steps()
-        e = int(np.argmin(dts))
-        return float(dts[e]), e
-
     def strain_energy(self) -> float:
         """Σ_g w ½ ε:D:ε (J, whole ring) of the current displacement."""
         return rz_strain_energy(

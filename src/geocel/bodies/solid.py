@@ -463,6 +463,15 @@ class ExplicitBody:
     def update(self, dt: float) -> None:  # pragma: no cover - interface
         raise NotImplementedError
 
+    def element_time_steps(self) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def stable_time_step(self) -> tuple[float, int]:
+        """(Δt (s), index of the governing element): the smallest of :meth:`element_time_steps`."""
+        dts = self.element_time_steps()
+        e = int(np.argmin(dts))
+        return float(dts[e]), e
+
     @property
     def n_nodes(self) -> int:
         return self.x.shape[0]
@@ -627,13 +636,6 @@ class SolidBody(ExplicitBody):
             self.x, self.hexes, self.element_mass, self.modulus, self.b1, self.b2, self.rate_v, out
         )
         return out
-
-    def stable_time_step(self) -> tuple[float, int]:
-        """(Δt (s), index of the governing element): min over the elements of L_e/c_d (√(1+ξ²) − ξ), with the
-        Flanagan–Belytschko length L_e = V/√(2ΣB²) (guaranteed stable; see the module docstring)."""
-        dts = self.element_time_steps()
-        e = int(np.argmin(dts))
-        return float(dts[e]), e
 
     def update(self, dt: float) -> None:
         """Stress, bulk viscosity and volumetric rate of every element from x^{n+1} and v^{n+½}."""
