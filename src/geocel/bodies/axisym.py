@@ -122,25 +122,25 @@ def _gauss_operators(nodes: np.ndarray, quads: np.ndarray):
     N = np.empty((m, 4, 4))
     dr = np.empty((m, 4, 4))
     dz = np.empty((m, 4, 4))
-    w = np.empty((m, 4))
+    rg = np.empty((m, 4))  # the points' radii
+    det = np.empty((m, 4))
     for g, (xi, eta) in enumerate(_GAUSS):
         n = 0.25 * (1.0 + _XI * xi) * (1.0 + _ETA * eta)
         dxi = 0.25 * _XI * (1.0 + _ETA * eta)
         deta = 0.25 * _ETA * (1.0 + _XI * xi)
         j = np.stack([dxi @ xe, deta @ xe], axis=1)  # (m, 2, 2): rows ∂/∂ξ, ∂/∂η of (r, z)
-        det = j[:, 0, 0] * j[:, 1, 1] - j[:, 0, 1] * j[:, 1, 0]
-        if np.any(det <= 0.0):
+        d = j[:, 0, 0] * j[:, 1, 1] - j[:, 0, 1] * j[:, 1, 0]
+        if np.any(d <= 0.0):
             raise ValueError(
                 "AxisymmetricBody: an element with a non-positive Jacobian (nodes not counter-clockwise)"
             )
         # [∂N/∂r, ∂N/∂z] = J⁻¹ [∂N/∂ξ, ∂N/∂η]
-        dr[:, g] = (j[:, 1, 1, None] * dxi - j[:, 0, 1, None] * deta) / det[:, None]
-        dz[:, g] = (-j[:, 1, 0, None] * dxi + j[:, 0, 0, None] * deta) / det[:, None]
-        rg = n @ xe[:, :, 0].T
+        dr[:, g] = (j[:, 1, 1, None] * dxi - j[:, 0, 1, None] * deta) / d[:, None]
+        dz[:, g] = (-j[:, 1, 0, None] * dxi + j[:, 0, 0, None] * deta) / d[:, None]
         N[:, g] = n
-        w[:, g] = 2.0 * math.pi * rg * det
-    rg = np.einsum("mgI,mI->mg", N, xe[:, :, 0])
-    return N, dr, dz, N / rg[:, :, None], w
+        rg[:, g] = xe[:, :, 0] @ n
+        det[:, g] = d
+    return N, dr, dz, N / rg[:, :, None], 2.0 * math.pi * rg * det
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
@@ -215,6 +215,8 @@ class AxisymmetricBody(ExplicitBody):
     (m, 4) counter-clockwise in (r, z); youngs_modulus E (Pa) > 0; poisson_ratio ν in (−1, ½); density ρ
     (kg/m³) > 0; bulk_viscosity (b₁, b₂) ≥ 0 (default (0.06, 1.2), as the hexahedra)."""
 
+    nodes_per_cell = 4
+
     def __init__(
         self,
         nodes: np.ndarray,
@@ -226,27 +228,17 @@ class AxisymmetricBody(ExplicitBody):
     ) -> None:
         self._set_material(youngs_modulus, poisson_ratio, density, bulk_viscosity)
         self.cd = math.sqrt(self.modulus / self.rho)
-        x = np.ascontiguousarray(nodes, dtype=float)
-        quads = np.ascontiguousarray(quads, dtype=np.int64)
-        if x.ndim != 2 or x.shape[1] != 3 or np.any(x[:, 1] != 0.0) or np.any(x[:, 0] < 0.0):
+        self.quads = quads = self._set_mesh(nodes, quads, "quads")
+        x, n = self.x0, self.n_nodes
+        if np.any(x[:, 1] != 0.0) or np.any(x[:, 0] < 0.0):
             raise ValueError("AxisymmetricBody: nodes must be (n, 3) rows (r ≥ 0, 0, z)")
-        if quads.ndim != 2 or quads.shape[1] != 4 or quads.shape[0] == 0:
-            raise ValueError(f"AxisymmetricBody: quads must have shape (m, 4) with m ≥ 1, got {quads.shape}")
-        n = x.shape[0]
-        if quads.min() < 0 or quads.max() >= n:
-            raise ValueError("AxisymmetricBody: quads refer to nodes that do not exist")
-        self.quads = quads
-        self.x0 = x.copy()
-        self.x = x.copy()
-        self.v = np.zeros_like(x)
-        self.time = 0.0
         self._N, self._dr, self._dz, self._Nr, self._w = _gauss_operators(x, quads)
         m = quads.shape[0]
         self.volume0 = self._w.sum(axis=1)
         self.volume = self.volume0.copy()  # (small strain: the reference volumes)
-        self.element_mass = self.rho * self.volume0
+        self._mI = self.rho * np.einsum("mg,mgI->mI", self._w, self._N)  # lumped masses per element node, kg
         self.mass = np.zeros(n)
-        np.add.at(self.mass, quads.ravel(), self.rho * np.einsum("mg,mgI->mI", self._w, self._N).ravel())
+        np.add.at(self.mass, quads.ravel(), self._mI.ravel())
         if np.any(self.mass <= 0.0):
             raise ValueError("AxisymmetricBody: some nodes belong to no element")
         self.stress = np.zeros((m, 4, 4))
@@ -286,8 +278,7 @@ class AxisymmetricBody(ExplicitBody):
         B[:, :, 3, 0::2] = self._dz
         B[:, :, 3, 1::2] = self._dr
         K = np.einsum("mg,mgsi,st,mgtj->mij", self._w, B, D, B)
-        mI = self.rho * np.einsum("mg,mgI->mI", self._w, self._N)
-        d = 1.0 / np.sqrt(np.repeat(mI, 2, axis=1))  # (m, 8)
+        d = 1.0 / np.sqrt(np.repeat(self._mI, 2, axis=1))  # (m, 8)
         A = K * d[:, :, None] * d[:, None, :]
         on_axis = np.repeat(self.x0[self.quads, 0] == 0.0, 2, axis=1)
         on_axis[:, 1::2] = False

@@ -439,6 +439,8 @@ class ExplicitBody:
     v: np.ndarray
     mass: np.ndarray
     time: float
+    #: nodes of an element (8 for the hexahedron, 4 for the ring)
+    nodes_per_cell: int
 
     def _set_material(
         self, youngs_modulus: float, poisson_ratio: float, density: float, bulk_viscosity: tuple[float, float]
@@ -456,6 +458,25 @@ class ExplicitBody:
         self.lam = self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
         self.mu = 0.5 * self.E / (1.0 + self.nu)
         self.modulus = self.lam + 2.0 * self.mu
+
+    def _set_mesh(self, nodes: np.ndarray, cells: np.ndarray, name: str) -> np.ndarray:
+        """Check nodes (n, 3) m and the cells' connectivity (m, k), set x₀ = x = nodes, v = 0, t = 0; returns
+        the connectivity as contiguous int64."""
+        who = type(self).__name__
+        x = np.ascontiguousarray(nodes, dtype=float)
+        cells = np.ascontiguousarray(cells, dtype=np.int64)
+        k = self.nodes_per_cell
+        if x.ndim != 2 or x.shape[1] != 3:
+            raise ValueError(f"{who}: nodes must have shape (n, 3), got {x.shape}")
+        if cells.ndim != 2 or cells.shape[1] != k or cells.shape[0] == 0:
+            raise ValueError(f"{who}: {name} must have shape (m, {k}) with m ≥ 1, got {cells.shape}")
+        if cells.min() < 0 or cells.max() >= x.shape[0]:
+            raise ValueError(f"{who}: {name} refer to nodes that do not exist")
+        self.x0 = x.copy()
+        self.x = x.copy()
+        self.v = np.zeros_like(x)
+        self.time = 0.0
+        return cells
 
     def internal_forces(self) -> np.ndarray:  # pragma: no cover - interface
         raise NotImplementedError
@@ -534,6 +555,8 @@ class SolidBody(ExplicitBody):
     when the body has at least :data:`PARALLEL_MIN_ELEMENTS` elements).
     """
 
+    nodes_per_cell = 8
+
     def __init__(
         self,
         nodes: np.ndarray,
@@ -548,20 +571,9 @@ class SolidBody(ExplicitBody):
         self._set_material(youngs_modulus, poisson_ratio, density, bulk_viscosity)
         self.hourglass = _check("hourglass", hourglass, 0.0, math.inf, lo_open=False)
 
-        x = np.ascontiguousarray(nodes, dtype=float)
-        hexes = np.ascontiguousarray(hexes, dtype=np.int64)
-        if x.ndim != 2 or x.shape[1] != 3:
-            raise ValueError(f"SolidBody: nodes must have shape (n, 3), got {x.shape}")
-        if hexes.ndim != 2 or hexes.shape[1] != 8 or hexes.shape[0] == 0:
-            raise ValueError(f"SolidBody: hexes must have shape (m, 8) with m ≥ 1, got {hexes.shape}")
-        n = x.shape[0]
-        if hexes.min() < 0 or hexes.max() >= n:
-            raise ValueError("SolidBody: hexes refer to nodes that do not exist")
+        hexes = self._set_mesh(nodes, hexes, "hexes")
         self.hexes = hexes
-        self.x0 = x.copy()
-        self.x = x.copy()
-        self.v = np.zeros_like(x)
-        m = hexes.shape[0]
+        n, m = self.n_nodes, hexes.shape[0]
         self.parallel = bool(m >= PARALLEL_MIN_ELEMENTS) if parallel is None else bool(parallel)
         self.stress = np.zeros((m, 6))
         self.q = np.zeros(m)
@@ -569,7 +581,6 @@ class SolidBody(ExplicitBody):
         self.volume = np.zeros(m)
         self._fe = np.zeros((m, 8, 3))
         self._f = np.zeros((n, 3))
-        self.time = 0.0
 
         # volumes and lumped masses
         self.volume0 = self._volumes(self.x)
