@@ -12,8 +12,8 @@ per-radian volumes V = r_c h_r h_z: a radial face at r_f has the area r_f h_z, a
   and state per soil volume, nodal momentum on the dual grid), run on a wedge one cell thick in θ whose
   geometry enters only through the face areas: the r sweep gets the face velocity u r_f (the area r_f h_z
   as u_f r_f × h_z), the z sweep the area r_c h_r. The wedge's two node copies (θ = 0 and θ = 1 rad)
-  each hold half the nodal mass and the same velocity, so the dual-grid fluxes give every node exactly
-  Σ m_cell/4 again.
+  would each hold half the nodal mass and the same velocity, so the node sweep advects one of them (with
+  its in-plane components only) and the dual-grid fluxes give every node exactly Σ m_cell/4 again.
 
 Mass is conserved to round-off (the top face of the domain is open: material leaving is counted).
 """
@@ -58,16 +58,18 @@ def volume_change_rz(r, hr, hz, u, dt, Vs, Vcur, split=NO_SPLIT):
 
 @njit(**KERNEL_OPTIONS)
 def _to_wedge(r, u, v, nmass, u3, v3, m_cur):
-    """The wedge's node copies: mesh motion (u_r r, 0, u_z), velocity (v_r, 0, v_z), half the nodal mass."""
+    """The wedge's node copies: mesh motion (u_r r, 0, u_z) at both; velocity (v_r, v_z) and half the nodal
+    mass at one (the copies are equal, so the node sweep advects one)."""
     nr1, nz1 = nmass.shape
     for i in range(nr1):
         for c in range(2):
             for k in range(nz1):
                 u3[i, c, k, 0] = u[i, k, 0] * r[i]
                 u3[i, c, k, 2] = u[i, k, 1]
-                v3[i, c, k, 0] = v[i, k, 0]
-                v3[i, c, k, 2] = v[i, k, 1]
-                m_cur[i, c, k] = 0.5 * nmass[i, k]
+        for k in range(nz1):
+            v3[i, 0, k, 0] = v[i, k, 0]
+            v3[i, 0, k, 1] = v[i, k, 1]
+            m_cur[i, 0, k] = 0.5 * nmass[i, k]
 
 
 @njit(**KERNEL_OPTIONS)
@@ -75,9 +77,9 @@ def _from_wedge(m_cur, v3, nmass, v):
     nr1, nz1 = nmass.shape
     for i in range(nr1):
         for k in range(nz1):
-            nmass[i, k] = m_cur[i, 0, k] + m_cur[i, 1, k]
+            nmass[i, k] = 2.0 * m_cur[i, 0, k]
             v[i, k, 0] = v3[i, 0, k, 0]
-            v[i, k, 1] = v3[i, 0, k, 2]
+            v[i, k, 1] = v3[i, 0, k, 1]
 
 
 _ORDERS = ((0, 2), (2, 0))
@@ -129,9 +131,9 @@ def remap_rz(
         work.update(
             shape=(nr1, nz1),
             u3=np.zeros((nr1, 2, nz1, 3)),
-            v3=np.zeros((nr1, 2, nz1, 3)),
-            m_cur=np.empty((nr1, 2, nz1)),
-            m_next=np.empty((nr1, 2, nz1)),
+            v3=np.zeros((nr1, 1, nz1, 2)),
+            m_cur=np.empty((nr1, 1, nz1)),
+            m_next=np.empty((nr1, 1, nz1)),
             phi=np.empty((Vs.shape[0], 1, Vs.shape[1])),
         )
     u3, v3, m_cur, m_next, phi = work["u3"], work["v3"], work["m_cur"], work["m_next"], work["phi"]

@@ -124,34 +124,45 @@ def sweep_cells(
         q = np.zeros((n, nc))
         for j in range(n2):
             A = h1[i] * h2[j]
+            soil = False
             for k in range(n):
                 act[k] = active3[i, j, k]
                 phi[k] = phi3[i, j, k]
                 vs[k] = Vs[i, j, k]
                 vc[k] = Vcur[i, j, k]
                 ms[k] = mass[i, j, k]
-                for d in range(6):
-                    q[k, d] = stress[i, j, k, d]
-                for d in range(ns):
-                    q[k, 6 + d] = state[i, j, k, d]
+                if ms[k] > 0.0:
+                    soil = True
+                if vs[k] > 0.0:  # (an empty cell's stress and state are never read: it gives no flux)
+                    soil = True
+                    for d in range(6):
+                        q[k, d] = stress[i, j, k, d]
+                    for d in range(ns):
+                        q[k, 6 + d] = state[i, j, k, d]
+            # the volume the mesh motion sweeps through each face (none through a closed or masked face,
+            # and nothing flows in through the open end)
             for f in range(n + 1):
                 dV[f] = 0.0
-                dVs[f] = 0.0
-                dm[f] = 0.0
-                for d in range(nc):
-                    dq[f, d] = 0.0
-                if f == 0:
-                    continue
-                if f == n and not open_end:
-                    continue
-                if not act[f - 1]:
-                    continue
-                if f < n and not act[f]:
+                if f == 0 or (f == n and not open_end) or not act[f - 1] or (f < n and not act[f]):
                     continue
                 u = 0.25 * (
                     v[i, j, f, comp] + v[i + 1, j, f, comp] + v[i, j + 1, f, comp] + v[i + 1, j + 1, f, comp]
                 )
                 dv = u * dt * A
+                if f < n or dv > 0.0:
+                    dV[f] = dv
+            if not soil:  # a line of void (above the surface): only the cells' current volumes change
+                for k in range(n):
+                    fbar[i, j, k] = 0.0
+                    if act[k]:
+                        Vcur[i, j, k] = vc[k] + dV[k] - dV[k + 1]
+                continue
+            for f in range(n + 1):
+                dVs[f] = 0.0
+                dm[f] = 0.0
+                for d in range(nc):
+                    dq[f, d] = 0.0
+                dv = dV[f]
                 if dv == 0.0:
                     continue
                 if dv > 0.0:
@@ -160,15 +171,12 @@ def sweep_cells(
                     U = f - 2
                     sgn = 1.0
                 else:
-                    if f == n:
-                        continue  # nothing flows in from outside the domain
                     D = f
                     Ac = f - 1
                     U = f + 1 if f + 1 < n else -1
                     sgn = -1.0
                 if U >= 0 and not act[U]:
                     U = -1
-                dV[f] = dv
                 adv = abs(dv)
                 vsD = vs[D]
                 vcD = vc[D]
@@ -248,13 +256,17 @@ def sweep_cells(
 def sweep_nodes(fbar, m_old, m_new, v, mtiny):
     """Advect nodal momentum along the last spatial axis with the dual-grid mass fluxes (van Leer velocity
     reconstruction), then v = p / m_new. The new nodal mass is the old one plus the net dual mass flux,
-    which equals Σ m_cell/8 of the swept cells exactly (so no separate nodal-mass pass is needed)."""
+    which equals Σ m_cell/8 of the swept cells exactly (so no separate nodal-mass pass is needed). ``v``,
+    ``m_old`` and ``m_new`` may hold fewer node lines across than ``fbar`` implies (the first ones are
+    swept: the r–z wedge passes one of its two equal θ copies) and any number of velocity components."""
     n1, n2, n = fbar.shape
+    nj = v.shape[1]  # n2 + 1 node lines across; fewer where they are copies (the r–z wedge passes one)
+    nd = v.shape[3]  # velocity components (3; the r–z wedge's 2 in-plane ones)
     for i in prange(n1 + 1):
         G = np.zeros(n)
-        vo = np.zeros((n + 1, 3))
-        fp = np.zeros((n, 3))
-        for j in range(n2 + 1):
+        vo = np.zeros((n + 1, nd))
+        fp = np.zeros((n, nd))
+        for j in range(nj):
             for k in range(n):
                 g = 0.0
                 for ci in range(max(i - 1, 0), min(i + 1, n1)):
@@ -262,12 +274,12 @@ def sweep_nodes(fbar, m_old, m_new, v, mtiny):
                         g += fbar[ci, cj, k]  # (zero in masked cells: sweep_cells sets it)
                 G[k] = g
             for k in range(n + 1):
-                for d in range(3):
+                for d in range(nd):
                     vo[k, d] = v[i, j, k, d]
             for k in range(n):
                 g = G[k]
                 if g == 0.0:
-                    for d in range(3):
+                    for d in range(nd):
                         fp[k, d] = 0.0
                     continue
                 if g > 0.0:
@@ -281,7 +293,7 @@ def sweep_nodes(fbar, m_old, m_new, v, mtiny):
                 cs = 0.5
                 if m_old[i, j, D] > mtiny:
                     cs = 0.5 * (1.0 - min(abs(g) / m_old[i, j, D], 1.0))
-                for d in range(3):
+                for d in range(nd):
                     vD = vo[D, d]
                     vA = vo[Ac, d] if m_old[i, j, Ac] > mtiny else vD
                     vU = vo[U, d] if (U >= 0 and m_old[i, j, U] > mtiny) else vD
@@ -295,10 +307,10 @@ def sweep_nodes(fbar, m_old, m_new, v, mtiny):
                 mn = max(mn, 0.0)
                 m_new[i, j, k] = mn
                 if mn <= mtiny:
-                    for d in range(3):
+                    for d in range(nd):
                         v[i, j, k, d] = 0.0
                     continue
-                for d in range(3):
+                for d in range(nd):
                     p = m_old[i, j, k] * vo[k, d]
                     lo = vo[k, d]
                     hi = vo[k, d]
