@@ -10,6 +10,7 @@ the node line r = a. Contact: :mod:`geocel.contact.axisym`.
     NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_jacking.py --cells-per-radius 6 [--penetration 1.2]
         [--scaling 10] [--velocity 0.5] [--base band|edge] [--rim base|split|shaft|corner] [--profile]
         [--soil hypoplastic|hypoplastic-no-igs|mohr-coulomb] [--frame laboratory|pile] [--nonlocal-length l]
+        [--safety-factor f] [--solver KEY=VALUE ...]
 
 Prints, at every 0.1 m of base depth, q_b (MPa) and q_s (kPa), each the mean over the steps within ±0.025 m
 of that depth (the base crosses a node row every a/n: the instantaneous values ripple with that period),
@@ -31,6 +32,7 @@ from geocel.config.materials import MohrCoulomb
 from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
 from geocel.grid.axisym import AxisymmetricGrid
 from geocel.solver.axisym_field import AxisymmetricField
+from geocel.solver.field import SolverSettings
 from geocel.solver.simulation import solver_settings
 
 RADIUS = 0.3  # m, pile radius (D = 0.6 m)
@@ -57,6 +59,7 @@ def run(
     profile: bool = False,
     frame: str = "laboratory",
     nonlocal_length: float = 0.0,
+    solver: dict | None = None,
 ) -> dict:
     sc = preset_scenario("deeks-white")
     if soil == "mohr-coulomb":  # a soil without rate or density effects, for checks of the contact and grid
@@ -85,7 +88,9 @@ def run(
         radius=container_radius, soil_depth=container_depth, void_height=void, fine_size=h,
         fine_radius=4.0 * RADIUS, fine_depth=fine_depth, growth=1.15, max_size=0.5,
     )  # fmt: skip
-    over = {} if safety_factor is None else {"safety_factor": safety_factor}
+    over = dict(solver or {})  # the soil step's numerical settings, e.g. {"bulk_viscosity_linear": 0.19}
+    if safety_factor is not None:
+        over["safety_factor"] = safety_factor
     if frame == "pile":  # (as a scenario in the pile's frame: remap after every step)
         over["remap_courant"] = 0.0
     settings = solver_settings(sc, **over)
@@ -168,6 +173,10 @@ def main() -> None:
     )  # fmt: skip
     ap.add_argument("--base", default="band", choices=("band", "edge"))
     ap.add_argument("--safety-factor", type=float, default=None, help="Δt = this × the stable step (0.9)")
+    ap.add_argument(
+        "--solver", action="append", default=[], metavar="KEY=VALUE",
+        help="override a [solver] setting of the soil step (repeatable), e.g. bulk_viscosity_linear=0.19",
+    )  # fmt: skip
     ap.add_argument("--profile", action="store_true", help="print where the wall time went")
     ap.add_argument(
         "--frame", default="laboratory", choices=("laboratory", "pile"),
@@ -185,9 +194,20 @@ def main() -> None:
     a = ap.parse_args()
     if not (a.cells_per_radius >= 1 and a.penetration > 0 and math.isfinite(a.penetration)):
         ap.error("cells per radius ≥ 1 and a positive penetration, please")
+    solver = {}
+    for item in a.solver:
+        key, sep, value = item.partition("=")
+        if not sep or key not in SolverSettings.__dataclass_fields__:
+            ap.error(
+                f"--solver {item!r}: KEY=VALUE with KEY one of {', '.join(SolverSettings.__dataclass_fields__)}"
+            )
+        try:
+            solver[key] = float(value)
+        except ValueError:
+            ap.error(f"--solver {item!r}: the value must be a number")
     run(
         a.cells_per_radius, a.penetration, a.scaling, a.velocity, a.rim, a.base, a.safety_factor,
-        soil=a.soil, profile=a.profile, frame=a.frame, nonlocal_length=a.nonlocal_length,
+        soil=a.soil, profile=a.profile, frame=a.frame, nonlocal_length=a.nonlocal_length, solver=solver,
     )  # fmt: skip
 
 
