@@ -24,12 +24,19 @@ q_s every 0.1 m of tip depth (each the mean over one fine cell of depth around i
 faces makes a ripple with that period) and of the radial stress σ_rr in the soil within one cell outside
 the shaft at the end (compression positive, kPa), in ``--out``; then a table of q_b, q_s per resolution at
 every 0.5 m, the MPE between successive resolutions over the depths ≥ 2 cells, wall times, and a figure
-``convergence.png``. Last line: ``mpe_qb_finest=<%> mpe_qs_finest=<%>`` between the two finest.
+``convergence.png``. Last line: ``mpe_qb_finest=<%> mpe_qs_finest=<%> mpe_qb_finest_mean=<%>
+mpe_qs_finest_mean=<%>`` between the two finest, of the curves and of their 0.5 m running means.
+
+    python benchmarks/mesh_convergence.py --runs RUN_6 RUN_12 RUN_24 [--out DIR]
+
+compares `geocel run` directories you already have (e.g. the r–z preset at its demo, coarse and paper
+resolutions), to the shallowest one's depth.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import sys
@@ -41,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 RADIUS = 0.3  # m
+SMOOTH = 5  # samples (0.1 m apart) of the running mean in the report
 CONTAINER = {"radius": 4.0, "soil_depth": 6.0}
 
 
@@ -204,14 +212,43 @@ def run_rz_scenario(
     }  # fmt: skip
 
 
-def _one(args) -> dict:
-    mode, n, penetration, kind, scaling, velocity, out, options = args
-    fn = run_3d if mode == "3d" else run_rz
-    r = fn(n, penetration, kind, scaling, velocity, out, **options)
+def from_run_directory(path: Path) -> dict:
+    """A finished (or stopped) ``geocel run`` directory as a result of this study: q_b, q_s from its history,
+    the resolution from its configuration (fine cells h = ``[domain] fine_size``, n = a/h), the cells, steps
+    and wall time from its summary; no radial stress profile (that needs the final field)."""
+    import tomllib
+
+    from geocel.io.history import read_history
+
+    cfg = tomllib.loads((path / "config.toml").read_text())
+    sfile = path / "summary.json"  # (absent while the run goes on: steps and wall time from its history)
+    summary = json.loads(sfile.read_text()) if sfile.is_file() else {}
+    h = float(cfg["domain"]["fine_size"])
+    hist = read_history(path / "history.csv").iloc[1:]
+    return {
+        "name": path.name, "mode": cfg["domain"].get("symmetry", "quarter"), "n": RADIUS / h, "h": h,
+        "cells": int(summary.get("soil_cells", 0)), "steps": int(summary.get("steps", hist["step"].iloc[-1])),
+        "wall_s": float(summary.get("wall_time", hist["wall_time"].iloc[-1])),
+        "status": summary.get("status", "running"),
+        "depth": hist["tip_depth"].to_numpy(), "qb": hist["qb"].to_numpy(), "qs": hist["qs"].to_numpy(),
+        "profile": np.zeros((0, 2)),
+    }  # fmt: skip
+
+
+def _sample(r: dict, penetration: float) -> dict:
+    """q_b, q_s every 0.1 m of tip depth, each the mean over one fine cell of depth around it."""
     at = np.round(np.arange(0.1, penetration + 1e-9, 0.1), 6)
     r["at"] = at
     r["qb_at"] = _window_mean(r["depth"], r["qb"], at, r["h"])
     r["qs_at"] = _window_mean(r["depth"], r["qs"], at, r["h"])
+    return r
+
+
+def _one(args) -> dict:
+    mode, n, penetration, kind, scaling, velocity, out, options = args
+    fn = run_3d if mode == "3d" else run_rz
+    r = _sample(fn(n, penetration, kind, scaling, velocity, out, **options), penetration)
+    at = r["at"]
     path = out / f"{r['name']}.csv"
     with open(path, "w") as fh:
         fh.write("depth_m,qb_MPa,qs_kPa\n")
@@ -234,8 +271,20 @@ def mpe(a: np.ndarray, b: np.ndarray) -> float:
     return float(100 * np.mean(np.abs(a[ok] / b[ok] - 1))) if ok.any() else float("nan")
 
 
+def running_mean(x: np.ndarray, n: int = SMOOTH) -> np.ndarray:
+    """Centred mean over n samples (NaN where the window leaves the curve or holds a NaN)."""
+    out = np.full(len(x), np.nan)
+    k = n // 2
+    for i in range(k, len(x) - k):
+        out[i] = np.mean(x[i - k : i + k + 1])
+    return out
+
+
 def report(results: list[dict], out: Path) -> None:
     results = sorted(results, key=lambda r: r["n"])
+    n_at = min(len(r["at"]) for r in results)  # (runs read from directories may have stopped at different depths)
+    for r in results:
+        r["at"], r["qb_at"], r["qs_at"] = r["at"][:n_at], r["qb_at"][:n_at], r["qs_at"][:n_at]
     at = results[0]["at"]
     print("\nq_b (MPa) / q_s (kPa) against tip depth:")
     print("depth " + "".join(f"{r['name']:>24s}" for r in results))
@@ -245,14 +294,24 @@ def report(results: list[dict], out: Path) -> None:
         print(
             f"{z:5.1f} " + "".join(f"{r['qb_at'][i] / 1e6:12.2f}{r['qs_at'][i] / 1e3:12.2f}" for r in results)
         )
-    print("\nresolution            cells    steps   wall (s)  MPE q_b vs next finer  MPE q_s vs next finer")
-    last = (float("nan"), float("nan"))
+    print(
+        f"\nMPE against the next finer resolution over the depths ≥ 2 coarse cells (q_b) and ≥ 0.5 m (q_s), of the "
+        f"curves and of their running means over {SMOOTH / 10:g} m (the dense sand's shear bands make q_b jump at "
+        "depths that a round-off perturbation shifts: docs/validation.md, 'The noise floor'); to "
+        f"{at[-1]:.1f} m\nresolution            cells    steps   wall (s)   q_b     q_s   q_b mean  q_s mean"
+    )
+    last = (float("nan"),) * 4
     for a, b in zip(results, results[1:] + [None], strict=True):
         if b is not None:
-            deep = at >= 2 * a["h"]  # depths ≥ 2 coarse cells: the first cells are the start
-            eb, es = mpe(a["qb_at"][deep], b["qb_at"][deep]), mpe(a["qs_at"][deep], b["qs_at"][deep])
-            last = (eb, es)
-            tail = f"{eb:14.1f} %{es:22.1f} %"
+            deep = at >= max(2 * a["h"], 0.3) - 1e-9  # the first cells are the start
+            shaft = at >= 0.5 - 1e-9  # (q_s: the shaft is short above)
+            last = (
+                mpe(a["qb_at"][deep], b["qb_at"][deep]),
+                mpe(a["qs_at"][shaft], b["qs_at"][shaft]),
+                mpe(running_mean(a["qb_at"])[deep], running_mean(b["qb_at"])[deep]),
+                mpe(running_mean(a["qs_at"])[shaft], running_mean(b["qs_at"])[shaft]),
+            )
+            tail = "".join(f"{e:7.1f} %" for e in last)
         else:
             tail = ""
         print(f"{a['name']:20s} {a['cells']:7d} {a['steps']:8d} {a['wall_s']:9.0f}  {tail}")
@@ -288,7 +347,10 @@ def report(results: list[dict], out: Path) -> None:
         print(f"figure: {out / 'convergence.png'}")
     except Exception as exc:  # a missing display or font must not lose the numbers above
         print(f"no figure: {exc}")
-    print(f"mpe_qb_finest={last[0]:.2f} mpe_qs_finest={last[1]:.2f}")
+    print(
+        f"mpe_qb_finest={last[0]:.2f} mpe_qs_finest={last[1]:.2f} "
+        f"mpe_qb_finest_mean={last[2]:.2f} mpe_qs_finest_mean={last[3]:.2f}"
+    )
 
 
 def main() -> None:
@@ -324,7 +386,21 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=1, help="runs at a time")
     ap.add_argument("--threads", type=int, default=1, help="Numba threads per run")
     ap.add_argument("--out", type=Path, default=Path("runs/mesh_convergence"))
+    ap.add_argument(
+        "--runs", type=Path, nargs="+", default=None, metavar="DIR",
+        help="compare these `geocel run` directories (each its own resolution) instead of running; to the "
+        "shallowest one's depth",
+    )  # fmt: skip
     a = ap.parse_args()
+    if a.runs:
+        missing = [d for d in a.runs if not (d / "history.csv").is_file() or not (d / "config.toml").is_file()]
+        if missing:
+            ap.error(f"not a run directory (config.toml and history.csv): {', '.join(map(str, missing))}")
+        results = [from_run_directory(d) for d in a.runs]
+        depth = min(float(np.nanmax(r["depth"])) for r in results)
+        a.out.mkdir(parents=True, exist_ok=True)
+        report([_sample(r, depth) for r in results], a.out)
+        return
     container = {"radius": a.container[0], "soil_depth": a.container[1]}
     if not (0 < a.penetration < container["soil_depth"] - 1.0 and math.isfinite(a.penetration)):
         ap.error(f"penetration must be in (0, {container['soil_depth'] - 1.0}) m")
