@@ -390,8 +390,7 @@ def write_results(
             "quasi_static": verdict(s["max_energy_ratio"]),
             "max_inertia_ratio": s.get("max_inertia_ratio"),
             "inertia_check": inertia_verdict(
-                s.get("max_inertia_ratio"), s.get("symmetry", symmetry),
-                s.get("frame", AXISYMMETRIC_MODEL["frame"] if rz else "laboratory"),  # (older summaries: the preset's)
+                s.get("max_inertia_ratio"), s.get("symmetry", symmetry), s.get("frame", "laboratory")
             ),
             "soil_mass_error": s["soil_mass_error"],
         }
