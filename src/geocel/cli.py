@@ -625,7 +625,7 @@ def _print_stop(summary: dict, sim) -> None:
 
 def _print_verdict(summary: dict) -> bool:
     """Print the quasi-static check; returns False when it says invalid."""
-    from .solver.quasi_static import inertia_limits, inertia_meaning, inertia_verdict, verdict
+    from .solver.quasi_static import inertia_limits, inertia_verdict, verdict
 
     ratio = summary["max_energy_ratio"]
     v = verdict(ratio)
@@ -636,12 +636,13 @@ def _print_verdict(summary: dict) -> bool:
     )
     inertia = summary.get("max_inertia_ratio")
     if inertia is not None:
-        model = (summary.get("symmetry", "3d"), summary.get("frame", "laboratory"))
-        vi = inertia_verdict(inertia, *model)
-        valid, caution = inertia_limits(*model)
+        symmetry = summary.get("symmetry", "3d")
+        vi = inertia_verdict(inertia, symmetry)
+        valid, caution = inertia_limits(symmetry)
         console.print(
-            f"inertia check: max ρ_S v²/q_b = {inertia:.3%} → [bold]{vi}[/bold] (≤ {valid:.2%} valid: "
-            f"{inertia_meaning(*model)}; ≤ {caution:.2%} caution; lower S or the speed if not valid)"
+            f"inertia check: max ρ_S v²/q_b = {inertia:.3%} → [bold]{vi}[/bold] (≤ {valid:.2%} valid: q_b "
+            f"within ≈ 5 % of the quasi-static value; ≤ {caution:.2%} caution; lower S or the speed if not "
+            "valid)"
         )
         v = "invalid" if vi == "invalid" else v
     return v != "invalid"

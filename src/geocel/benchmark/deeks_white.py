@@ -28,15 +28,9 @@ import pandas as pd
 from ..batch import dask_client, run_in_directory, run_state, run_tasks
 from ..config.scenario import Scenario
 from ..io.history import read_history
-from ..solver.quasi_static import inertia_limits, inertia_meaning, inertia_verdict
+from ..solver.quasi_static import inertia_limits, inertia_verdict
 from .plots import cell_average, plot_curves, value_at_depth, verdict
-from .presets import (
-    AXISYMMETRIC_MODEL,
-    AXISYMMETRIC_RESOLUTIONS,
-    RESOLUTIONS,
-    preset_dict,
-    scenario_from_options,
-)
+from .presets import AXISYMMETRIC_RESOLUTIONS, RESOLUTIONS, preset_dict, scenario_from_options
 
 KINDS = {"solid": "conventional", "coupled": "coupled", "rigid": "rigid"}
 #: names accepted for a pile kind in ``--variants`` (the table's own name of the solid pile included)
@@ -389,9 +383,7 @@ def write_results(
             "max_KE_IE": s["max_energy_ratio"],
             "quasi_static": verdict(s["max_energy_ratio"]),
             "max_inertia_ratio": s.get("max_inertia_ratio"),
-            "inertia_check": inertia_verdict(
-                s.get("max_inertia_ratio"), s.get("symmetry", symmetry), s.get("frame", "laboratory")
-            ),
+            "inertia_check": inertia_verdict(s.get("max_inertia_ratio"), s.get("symmetry", symmetry)),
             "soil_mass_error": s["soil_mass_error"],
         }
         if ref is not None and h is not None:
@@ -423,14 +415,13 @@ def write_results(
     if rz:
         radius = 0.5 * preset_dict("deeks-white")["pile"]["diameter"]
         cells = f" ({width:g} m cells at the pile, {radius / width:.0f} per pile radius)" if width else ""
-        frame = AXISYMMETRIC_MODEL["frame"]  # (the r–z preset's grid frame)
-        valid, caution = inertia_limits(symmetry, frame)
+        valid, caution = inertia_limits(symmetry)
         heading = "# Deeks & White (2006) pile-jacking benchmark, axisymmetric (r–z) model"
         setup = f"Symmetry `axisymmetric` (the r–z plane), resolution `{resolution}`{cells}"
         forces = (
             "q_b and q_s are those of the whole pile (the r–z forces per radian × 2π, no symmetry factor); the "
-            f"inertia check uses the limits of r–z in the {frame}'s frame (ρ_S v²/q_b ≤ {valid:.2%} valid: "
-            f"{inertia_meaning(symmetry, frame)}; ≤ {caution:.2%} caution: docs/validation.md). "
+            f"inertia check uses the r–z limits (ρ_S v²/q_b ≤ {valid:.2%} valid, ≤ {caution:.2%} caution: "
+            "docs/validation.md). "
         )
     else:
         heading = "# Deeks & White (2006) pile-jacking benchmark"

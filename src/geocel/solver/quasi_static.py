@@ -10,20 +10,13 @@ line, the benchmark, sweeps and the plots.
   soil's equation of motion, and the resistance the result is about is in the denominator. Limits
   calibrated on jacked-pile runs at S = 1–100 and two speeds against their measured q_b error
   (docs/validation.md): ≤ 0.5 % valid (q_b error ≤ 5 %; the middle, geometrically, between the runs at 0.24 % (5.5 % error) and 0.87 % (7.7 %)), ≤ 1 % caution, above invalid.
-  The axisymmetric mode in the laboratory's frame is far more sensitive to S v² (the flat base capturing node
-  rows: docs/validation.md): calibrated the same way on r–z runs at 3 cells per pile radius, ≤ 0.02 % valid,
-  ≤ 0.08 % caution. In the pile's frame (the r–z preset) no such capture happens, and the q_b of runs up to
-  0.22 % is as close to the slowest case measured (S = 1 at 0.05 m/s) as that of runs at 0.002 % (4–11 % at 6
-  cells per pile radius; none is closer, docs/validation.md "Against the slowest case"): ≤ 0.3 % valid,
-  ≤ 1 % caution, with that weaker meaning of valid.
+  The axisymmetric mode is far more sensitive to S v² (why is not yet understood; docs/validation.md):
+  calibrated the same way on r–z runs at 3 cells per pile radius, ≤ 0.02 % valid, ≤ 0.08 % caution.
 """
 
 from __future__ import annotations
 
-__all__ = [
-    "CAUTION", "INERTIA_CAUTION", "INERTIA_VALID", "VALID", "inertia_limits", "inertia_meaning", "inertia_verdict",
-    "verdict",
-]
+__all__ = ["CAUTION", "INERTIA_CAUTION", "INERTIA_VALID", "VALID", "inertia_verdict", "verdict"]
 
 #: limits of the quasi-static check on max(kinetic/internal energy)
 VALID, CAUTION = 0.05, 0.10
@@ -37,40 +30,21 @@ def verdict(ratio: float | None) -> str:
     return "valid" if ratio <= VALID else ("caution" if ratio <= CAUTION else "invalid")
 
 
-#: limits (valid, caution) of the inertia ratio ρ_S v² / q_b per model (calibrated: docs/validation.md)
-INERTIA_LIMITS = {"3d": (0.005, 0.01), "axisymmetric": (0.0002, 0.0008), "axisymmetric-pile": (0.003, 0.01)}
+#: limits (valid, caution) of the inertia ratio ρ_S v² / q_b per symmetry (calibrated: docs/validation.md)
+INERTIA_LIMITS = {"3d": (0.005, 0.01), "axisymmetric": (0.0002, 0.0008)}
 INERTIA_VALID, INERTIA_CAUTION = INERTIA_LIMITS["3d"]
-#: what "valid" was calibrated to mean, per model
-INERTIA_MEANING = {
-    "3d": "q_b within ≈ 5 % of the quasi-static value",
-    "axisymmetric": "q_b within ≈ 5 % of the quasi-static value",
-    "axisymmetric-pile": "q_b as close to the slowest case measured as slower runs are (4–11 % at 6 cells per radius)",
-}
 
 
-def _model(symmetry: str, frame: str) -> str:
-    if symmetry != "axisymmetric":
-        return "3d"
-    return "axisymmetric-pile" if frame == "pile" else "axisymmetric"
+def inertia_limits(symmetry: str = "3d") -> tuple[float, float]:
+    """(valid, caution) limits of the inertia ratio for a model's ``symmetry`` (quarter/half/full: 3D)."""
+    return INERTIA_LIMITS["axisymmetric" if symmetry == "axisymmetric" else "3d"]
 
 
-def inertia_limits(symmetry: str = "3d", frame: str = "laboratory") -> tuple[float, float]:
-    """(valid, caution) limits of the inertia ratio for a model's ``symmetry`` (quarter/half/full: 3D) and,
-    in r–z, its grid's ``frame`` (laboratory or pile)."""
-    return INERTIA_LIMITS[_model(symmetry, frame)]
-
-
-def inertia_meaning(symmetry: str = "3d", frame: str = "laboratory") -> str:
-    """What a ``valid`` verdict says about q_b for that model (its calibration)."""
-    return INERTIA_MEANING[_model(symmetry, frame)]
-
-
-def inertia_verdict(ratio: float | None, symmetry: str = "3d", frame: str = "laboratory") -> str:
+def inertia_verdict(ratio: float | None, symmetry: str = "3d") -> str:
     """Verdict of max(ρ_S v² / q_b): ``valid`` up to the first limit of :func:`inertia_limits` (3D 0.5 %,
-    r–z 0.02 %, r–z in the pile's frame 0.3 %), ``caution`` up to the second (1 %, 0.08 %, 1 %), else
-    ``invalid``; ``unknown`` when it was never evaluated (soil-only runs, or the tip not yet one diameter
-    deep)."""
+    axisymmetric 0.02 %), ``caution`` up to the second (1 %, 0.08 %), else ``invalid``; ``unknown`` when
+    it was never evaluated (soil-only runs, or the tip not yet one diameter deep)."""
     if ratio is None or ratio != ratio or ratio < 0.0:
         return "unknown"
-    valid, caution = inertia_limits(symmetry, frame)
+    valid, caution = inertia_limits(symmetry)
     return "valid" if ratio <= valid else ("caution" if ratio <= caution else "invalid")
