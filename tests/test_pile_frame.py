@@ -179,6 +179,16 @@ def test_bad_pile_frame_input_is_one_clear_line(domain, needle):
     assert needle in str(err.value)
 
 
+def test_pile_frame_keeps_the_penetration_within_the_pile_length():
+    """In the pile's frame the base stays on its node row, but the pile still enters the soil by its penetration:
+    more than its length would bury the head (the check once used the base's fixed grid depth instead)."""
+    d = scenario_dict(frame="pile", void_height=2.0)
+    d["loading"]["penetration"] = 1.5  # initial embedment 0.1 m + 1.5 m > the 1 m pile
+    with pytest.raises(ScenarioError) as err:
+        scenario_from_dict(d)
+    assert "initial_embedment + penetration = 1.6 m exceeds the pile length 1 m" in str(err.value)
+
+
 @pytest.mark.parametrize("rim", ["base", "corner"])
 def test_restart_in_the_pile_frame_gives_the_same_history(tmp_path, rim):
     """A run stopped part-way and restarted from its checkpoint continues the grid's motion, the inflow and the

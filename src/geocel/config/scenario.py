@@ -639,11 +639,12 @@ class Scenario(_Table):
                 f"initial_embedment + penetration = {tip:g} m: the tip would reach or pass the base, "
                 f"soil_depth = {dom.soil_depth} m",
             )
-        if tip > pile.length:
+        embedded = pile.initial_embedment + self.loading.penetration  # (in either frame)
+        if embedded > pile.length:
             raise _invalid(
                 ("loading", "penetration"),
                 self.loading.penetration,
-                f"initial_embedment + penetration = {tip:g} m exceeds the pile length {pile.length:g} m "
+                f"initial_embedment + penetration = {embedded:g} m exceeds the pile length {pile.length:g} m "
                 "(the head would enter the soil)",
             )
 
