@@ -175,6 +175,24 @@ def test_hourglass_force_is_the_strain_energy_of_the_mode():
 
 
 # --------------------------------------------------------------------------- the field
+def test_a_step_far_beyond_the_stable_one_is_reported_as_an_instability():
+    """Five times the stable step blows the column up; the step must say so (where, and that a node moved more
+    than a cell before the remap) instead of carrying on with soil thrown out of the domain."""
+    from geocel.solver.field import InstabilityError
+
+    g = AxisymmetricGrid.graded(radius=1.0, soil_depth=2.0, void_height=0.4, fine_size=0.2, fine_radius=0.6,
+                                growth=1.3)  # fmt: skip
+    f = AxisymmetricField(g, Elastic(youngs_modulus=5e6, poisson_ratio=0.3), settings=SolverSettings(remap_courant=0.0))
+    f.fill_below(0.0)
+    f.geostatic([(0.0, 0.65)], k0=0.5)
+    f.stress[...] = 0.0  # (stress-free, void above: it falls under its weight)
+    with pytest.raises(InstabilityError) as info:
+        for _ in range(2000):
+            f.step(dt=5.0 * f.dt_critical)
+    d = info.value.diagnostic
+    assert d["quantity"] in ("courant", "kinetic_energy") and d["step"] > 0
+
+
 @pytest.mark.parametrize("S", [1.0, 100.0])
 def test_geostatic_column_with_void_above_stays_at_rest(S):
     """Hypoplastic soil on a graded r–z grid with void above, MGS factor S: at rest to round-off, σ_zz =

@@ -290,6 +290,16 @@ class AxisymmetricField(FieldBalances):
             courant = _accumulate_rz(
                 self._node_reciprocal[0], self._node_reciprocal[1], self.v, dt, self.u_remap, wz
             )
+            if courant > 1.0:  # a node moved more than a cell before the remap: Δt beyond the stable step
+                speed = np.abs(self.v).max(axis=-1)
+                i, k = (int(t) for t in np.unravel_index(np.argmax(speed), speed.shape))
+                raise InstabilityError(
+                    f"axisymmetric step {self.step_count}: a node moved {courant:.3g} cells in one remap interval "
+                    f"(the fastest, {float(speed[i, k]):.3g} m/s, at r = {self.grid.r[i]:.3g} m, "
+                    f"z = {self.grid.z[k]:.3g} m; Δt = {dt:.3g} s)",
+                    {"step": self.step_count, "time": self.time, "dt": dt, "quantity": "courant", "courant": courant,
+                     "index": [i, k], "position_m": (float(self.grid.r[i]), float(self.grid.z[k]))},
+                )  # fmt: skip
             self.frame_offset += wz * dt
             if not deferred or courant >= rc_:
                 if contact is not None:

@@ -392,6 +392,8 @@ class SoilField(FieldBalances):
         if not deferred:
             self.u_remap[...] = 0.0
         courant = accumulate_displacement(*self._node_reciprocal, self.v, dt, self.u_remap)
+        if courant > 1.0 and st.remap_courant < np.inf:  # a node moved more than a cell before the remap
+            raise InstabilityError(*self._diagnose(dt, courant))
         if not deferred or courant >= st.remap_courant:
             self._remap(dt, parity, self.u_remap)
         t3 = time.perf_counter()
@@ -450,9 +452,10 @@ class SoilField(FieldBalances):
         self.capped_volume += capped
         self.remap_count += 1
 
-    def _diagnose(self, dt: float) -> tuple[str, dict]:
+    def _diagnose(self, dt: float, courant: float | None = None) -> tuple[str, dict]:
         """Where and which quantity went non-finite (cell arrays at cell centres, node arrays at nodes);
-        if every array is finite, the energy sum overflowed: report the fastest node."""
+        if every array is finite, the energy sum overflowed or (``courant`` > 1) a node moved more than a cell
+        before the remap: report the fastest node."""
         g = self.grid
         diag: dict = {"step": self.step_count, "time": self.time, "dt": dt}
         cells = (
@@ -479,14 +482,16 @@ class SoilField(FieldBalances):
             speed = np.abs(np.nan_to_num(self.v, nan=0.0, posinf=0.0, neginf=0.0)).max(axis=-1)
             i, j, k = (int(t) for t in np.unravel_index(np.argmax(speed), speed.shape))
             diag.update(
-                quantity="kinetic_energy",
+                quantity="kinetic_energy" if courant is None else "courant",
                 index=[i, j, k],
                 position_m=(float(g.x[i]), float(g.y[j]), float(g.z[k])),
             )
-        msg = (
-            f"instability at step {self.step_count} (t = {self.time:.6g} s, Δt = {dt:.3g} s): non-finite "
-            f"{diag['quantity']} at {diag['position_m']}"
-        )
+        what = f"non-finite {diag['quantity']}"
+        if diag["quantity"] == "courant":
+            diag["courant"] = courant
+            what = f"a node moved {courant:.3g} cells in one remap interval (the fastest node"
+            what += f", {float(speed[i, j, k]):.3g} m/s)"
+        msg = f"instability at step {self.step_count} (t = {self.time:.6g} s, Δt = {dt:.3g} s): {what} at {diag['position_m']}"
         return msg, diag
 
     # --- diagnostics ------------------------------------------------------------------------------------------
