@@ -51,6 +51,19 @@ ENERGY_KEYS = (
 )
 
 
+def runaway_nodes(u: np.ndarray, reciprocals: tuple, nmass: np.ndarray, share: float = 0.01) -> np.ndarray:
+    """Mask of the nodes that moved more than a cell (``u``, m, against the node spacings' ``reciprocals`` per
+    axis) since the last remap and carry at least ``share`` of the largest nodal mass: with Δt within the
+    stable step no node with soil does (the step's bound includes the speed), but a nearly empty node at the
+    free surface may outrun its cell harmlessly (the remap moves no more soil than a donor holds)."""
+    c = np.zeros(nmass.shape)
+    for d, rec in enumerate(reciprocals):
+        shape = [1] * nmass.ndim
+        shape[d] = -1
+        c = np.maximum(c, np.abs(u[..., d]) * rec.reshape(shape))
+    return (c > 1.0) & (nmass >= share * nmass.max())
+
+
 class InstabilityError(RuntimeError):
     """The explicit integration became unstable; ``diagnostic`` says where, when and which quantity."""
 
@@ -392,7 +405,8 @@ class SoilField(FieldBalances):
         if not deferred:
             self.u_remap[...] = 0.0
         courant = accumulate_displacement(*self._node_reciprocal, self.v, dt, self.u_remap)
-        if courant > 1.0 and st.remap_courant < np.inf:  # a node moved more than a cell before the remap
+        finite = st.remap_courant < np.inf
+        if courant > 1.0 and finite and runaway_nodes(self.u_remap, self._node_reciprocal, self.nmass).any():
             raise InstabilityError(*self._diagnose(dt, courant))
         if not deferred or courant >= st.remap_courant:
             self._remap(dt, parity, self.u_remap)
@@ -491,7 +505,10 @@ class SoilField(FieldBalances):
             diag["courant"] = courant
             what = f"a node moved {courant:.3g} cells in one remap interval (the fastest node"
             what += f", {float(speed[i, j, k]):.3g} m/s)"
-        msg = f"instability at step {self.step_count} (t = {self.time:.6g} s, Δt = {dt:.3g} s): {what} at {diag['position_m']}"
+        msg = (
+            f"instability at step {self.step_count} (t = {self.time:.6g} s, Δt = {dt:.3g} s): {what} at "
+            f"{diag['position_m']}"
+        )
         return msg, diag
 
     # --- diagnostics ------------------------------------------------------------------------------------------
