@@ -131,10 +131,8 @@ def sweep_cells(
                 vs[k] = Vs[i, j, k]
                 vc[k] = Vcur[i, j, k]
                 ms[k] = mass[i, j, k]
-                if ms[k] > 0.0:
-                    soil = True
+                soil = soil or ms[k] > 0.0 or vs[k] > 0.0
                 if vs[k] > 0.0:  # (an empty cell's stress and state are never read: it gives no flux)
-                    soil = True
                     for d in range(6):
                         q[k, d] = stress[i, j, k, d]
                     for d in range(ns):

@@ -291,8 +291,9 @@ class AxisymmetricField(FieldBalances):
             courant = _accumulate_rz(
                 self._node_reciprocal[0], self._node_reciprocal[1], self.v, dt, self.u_remap, wz
             )
-            if courant > 1.0 and runaway_nodes(self.u_remap, self._node_reciprocal, self.nmass).any():
-                speed = np.abs(self.v).max(axis=-1)
+            runaway = runaway_nodes(self.u_remap, self._node_reciprocal, self.nmass) if courant > 1.0 else None
+            if runaway is not None and runaway.any():
+                speed = np.where(runaway, np.abs(self.v).max(axis=-1), -1.0)  # the fastest of those with soil
                 i, k = (int(t) for t in np.unravel_index(np.argmax(speed), speed.shape))
                 raise InstabilityError(
                     f"axisymmetric step {self.step_count}: a node moved {courant:.3g} cells in one remap interval "
