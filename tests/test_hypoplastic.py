@@ -610,6 +610,104 @@ def test_small_cycles_ratcheting_suppressed():
 
 
 # ============================================================================================================
+# 7b. the bounding surface f_d ‖L⁻¹:N‖ ≤ 1 (overshooting of the intergranular strain)
+# ============================================================================================================
+def _tuple(x):
+    return tuple(float(v) for v in x)
+
+
+def mn_angle(T: np.ndarray) -> float:
+    """Mobilised Matsuoka–Nakai friction angle, degrees: I1 I2/I3 = (9 − sin²φ)/(1 − sin²φ)."""
+    s = -np.linalg.eigvalsh(vec_to_mat(T))
+    i1, i2, i3 = s.sum(), s[0] * s[1] + s[1] * s[2] + s[0] * s[2], s.prod()
+    k = i1 * i2 / i3
+    return math.degrees(math.asin(math.sqrt((k - 9.0) / (k - 1.0))))
+
+
+@pytest.mark.parametrize(("fd", "ratio_tab", "tol", "phi_tab", "qp_tab", "dil_tab", "psi_tab"), PEAK_TABLE)
+def test_bound_ratio_is_one_at_the_peaks_of_the_table(fd, ratio_tab, tol, phi_tab, qp_tab, dil_tab, psi_tab):
+    """B = f_d‖L⁻¹:N‖ (the kernel's closed form) is 1 at the reference's peak stress ratios, below it inside
+    and above it outside; the ratio's printed digits bound how close to 1."""
+    p = 100e3
+    e = void_for_fd(BASE, p, fd)
+    for ratio, want in ((ratio_tab, 1.0), (1.0 + 0.9 * (ratio_tab - 1.0), "<"), (1.1 * ratio_tab, ">")):
+        b = hp.bound_ratio(PRM_BASE, _tuple(triax_stress(p, ratio)), e)
+        if want == "<":
+            assert b < 1.0
+        elif want == ">":
+            assert b > 1.0
+        else:
+            db = (hp.bound_ratio(PRM_BASE, _tuple(triax_stress(p, ratio + tol)), e) - b) / tol
+            assert abs(b - 1.0) <= abs(db) * tol + 1e-9
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_bound_ratio_is_one_on_the_critical_cone_at_any_lode_angle(seed):
+    """At e = e_c (f_d = 1) the surface B = 1 is the Matsuoka–Nakai cone of φ_c, in any direction (§4)."""
+    rng = np.random.default_rng(seed)
+    p = 50e3 * (1 + rng.random())
+    d = rng.normal(size=3)
+    d -= d.mean()
+    s = math.sin(PHI_C)
+
+    def mn_excess(r):
+        T = -p * np.ones(3) + r * p * d / np.linalg.norm(d)
+        i1, i2, i3 = -T.sum(), T[0] * T[1] + T[1] * T[2] + T[0] * T[2], -T.prod()
+        return i1 * i2 / i3 - (9 - s * s) / (1 - s * s)
+
+    r = brentq(mn_excess, 0.0, 0.99, xtol=1e-14)
+    T = np.concatenate([-p * np.ones(3) + r * p * d / np.linalg.norm(d), np.zeros(3)])
+    Q = special_ortho_group.rvs(3, random_state=seed)
+    e_c = float(BASE.critical_void_ratio(p))
+    assert hp.bound_ratio(PRM_BASE, _tuple(rot6(Q, T)), e_c) == pytest.approx(1.0, abs=1e-10)
+
+
+def test_projection_keeps_mean_stress_and_lode_angle():
+    T = np.array([-300e3, -20e3, -90e3, 15e3, -40e3, 5e3])  # far outside at this density
+    e = void_for_fd(BASE, 100e3, 0.9)
+    assert hp.bound_ratio(PRM_BASE, _tuple(T), e) > 1.3
+    out, flag = hp.bound_tuple(PRM_FULL, _tuple(T), e)
+    out = np.array(out)
+    assert flag == fl.BOUNDED
+    assert hp.bound_ratio(PRM_BASE, _tuple(out), e) == pytest.approx(1.0, abs=1e-9)
+    assert out[:3].sum() == pytest.approx(T[:3].sum(), rel=1e-14)
+    dev_in, dev_out = T - np.r_[np.full(3, T[:3].mean()), 0, 0, 0], out - np.r_[np.full(3, out[:3].mean()), 0, 0, 0]
+    assert np.allclose(dev_out / tnorm(dev_out), dev_in / tnorm(dev_in), atol=1e-12)  # same direction: same Lode angle
+    inside = triax_stress(100e3, 2.0)
+    assert hp.bound_tuple(PRM_FULL, _tuple(inside), e) == (_tuple(inside), 0)
+
+
+def _cavity_with_reversals(bounded: bool, amplitude: float):
+    """Radial compression with hoop extension (tr D = 0, the strain of a cylindrical cavity's wall) at 10⁻⁶ per
+    increment, with a sinusoidal strain of ``amplitude`` along the same direction superposed (period 400
+    increments), from a K0 state of dense Fraction E; returns the largest B and MN angle on the path."""
+    mat = Hypoplastic.fraction_e(bounding_surface=bounded)
+    prm = mat.to_array()
+    T = np.array([-15e3, -15e3, -30e3, 0, 0, 0.0])
+    st = mat.initial_state(0.51, "vertical")
+    u = np.array([-1.0, 1.0, 0.0, 0, 0, 0]) / math.sqrt(2.0)
+    b_max = phi_max = prev = 0.0
+    for k in range(1, 20001):
+        cur = amplitude * math.sin(2 * math.pi * k / 400)
+        T, st, _ = update(prm, T, st, u * (1e-6 + cur - prev), tol=0.0, nsub=1)
+        prev = cur
+        b_max = max(b_max, hp.bound_ratio(prm, _tuple(T), st[0]))
+        phi_max = max(phi_max, mn_angle(T))
+    return b_max, phi_max
+
+
+def test_bounding_surface_stops_the_overshooting_of_the_intergranular_strain():
+    """Reversals of 3 R superposed on a monotonic shear: the published model leaves the base model's surface
+    far behind (MN angles beyond 55°, where the monotonic path peaks below 40°); with the rule B ≤ 1 holds after
+    every increment. Without reversals the rule never fires (the paths agree to round-off)."""
+    b_pub, phi_pub = _cavity_with_reversals(False, 3e-4)
+    b_bnd, phi_bnd = _cavity_with_reversals(True, 3e-4)
+    assert b_pub > 1.3 and phi_pub > 55.0
+    assert b_bnd <= 1.0 + 1e-9 and phi_bnd < phi_pub - 10.0
+    assert _cavity_with_reversals(True, 0.0) == _cavity_with_reversals(False, 0.0)
+
+
+# ============================================================================================================
 # 8. generic properties
 # ============================================================================================================
 @pytest.mark.parametrize("seed", range(4))

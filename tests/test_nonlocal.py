@@ -115,11 +115,11 @@ def test_a_band_keeps_its_own_term_and_the_soil_beside_it_gets_more():
     assert np.all(out >= 1.0)
 
 
-def _drained_triaxial(lam: float, strain: float, de: float = 1e-4, sr: float = 1e5):
+def _drained_triaxial(lam: float, strain: float, de: float = 1e-4, sr: float = 1e5, bounded: bool = True):
     """Drained triaxial compression (σ_r = −sr held by solving for the radial strain of each increment) of the
     paper's sand from e = 0.6 with the non-local factor λ held fixed; returns (e after every increment, p at the
-    end, material)."""
-    mat = Hypoplastic.fraction_e()
+    end, material). ``bounded``: the bounding-surface rule on (the default) or off (the model as published)."""
+    mat = Hypoplastic.fraction_e(bounding_surface=bounded)
     prm = mat.to_array()
     T, e, q = (-sr, -sr, -sr, 0.0, 0.0, 0.0), 0.6, (0.0,) * 6
     path = []
@@ -137,11 +137,12 @@ def _drained_triaxial(lam: float, strain: float, de: float = 1e-4, sr: float = 1
 def test_the_factor_moves_the_critical_void_ratio_as_the_closed_form_says():
     """Why λ is held ≥ 1: steady shearing needs λ f_d(e) = 1, so the critical void ratio becomes
     e_d + (e_c − e_d) λ^(−1/α). With λ = 2 a drained triaxial test ends there (not at e_c); with λ = 0.9 that
-    void ratio lies above e_i, which f_d cannot exceed, so the sand dilates past e_i and on without end."""
+    void ratio lies above e_i, which f_d cannot exceed, so the sand of the published model dilates past e_i and on
+    without end."""
     e, p, mat = _drained_triaxial(2.0, 0.3)
     ed, ec, ei = mat.limit_void_ratios(p)
     assert e[-1] == pytest.approx(ed + (ec - ed) * 2.0 ** (-1.0 / mat.alpha), rel=1e-3)
-    e, p5, _ = _drained_triaxial(0.9, 0.5)
+    e, p5, _ = _drained_triaxial(0.9, 0.5, bounded=False)
     e4, e5 = e[round(0.4 / 1e-4) - 1], e[-1]  # at 40 % and 50 % axial strain
     assert e5 > mat.limit_void_ratios(p5)[2] and e5 - e4 > 0.02
 

@@ -147,6 +147,11 @@ class Hypoplastic(_Material):
     beta_r: float = Field(0.58, gt=0.0, description="evolution exponent β_r of the intergranular strain, -")
     chi: float = Field(5.74, gt=0.0, description="interpolation exponent χ, -")
     intergranular_strain: bool = Field(True, description="use the intergranular-strain extension")
+    bounding_surface: bool = Field(
+        True,
+        description="keep the stress inside the base model's bounding surface f_d‖L⁻¹:N‖ ≤ 1 (the intergranular "
+        "strain's overshooting; docs/numerics.md, 'The bounding surface'); false: the model as published",
+    )
     p_min: float = Field(100.0, gt=0.0, le=1.0e5, description="low-stress floor p_min, Pa (see docs)")
     nonlocal_length: float = Field(
         0.0,
@@ -212,6 +217,7 @@ class Hypoplastic(_Material):
         prm[_hp.P_CHI] = self.chi
         prm[_hp.P_IGS] = 1.0 if self.intergranular_strain else 0.0
         prm[_hp.P_PMIN] = self.p_min
+        prm[_hp.P_BOUND] = 1.0 if self.bounding_surface else 0.0
         _hp.derived_constants(prm)
         return prm
 

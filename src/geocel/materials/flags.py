@@ -12,6 +12,7 @@ RHO_CLIPPED = 16  #: ‖δ‖ > R after an explicit step: δ scaled back to ‖�
 PLASTIC = 32  #: Mohr–Coulomb: plastic return mapping applied
 TENSION_CUTOFF = 64  #: Mohr–Coulomb: tension cut-off active
 SUBSTEP_LIMIT = 128  #: adaptive substepping hit its minimum step / maximum count
+BOUNDED = 256  #: hypoplasticity: stress beyond the base model's bounding surface, deviator scaled back onto it
 
 NAMES = {
     LOW_STRESS: "low_stress",
@@ -22,6 +23,7 @@ NAMES = {
     PLASTIC: "plastic",
     TENSION_CUTOFF: "tension_cutoff",
     SUBSTEP_LIMIT: "substep_limit",
+    BOUNDED: "bounded",
 }
 
 

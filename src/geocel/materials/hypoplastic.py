@@ -55,7 +55,10 @@ P_IGS = 13  # 1.0: intergranular strain on, 0.0: base model
 P_PMIN = 14  # p_min, Pa: low-stress floor
 P_A = 15  # derived: a = √3 (3 − sin φc) / (2√2 sin φc)
 P_FB_CONST = 16  # derived: (e_i0/e_c0)^β / [3 + a² − a√3 ((e_i0 − e_d0)/(e_c0 − e_d0))^α]
-N_PARAMS = 17
+P_BOUND = 17  # 1.0: keep the stress inside the base model's bounding surface (bound_tuple), 0.0: not
+P_FD_MAX = 18  # derived: f_d(e_i) = ((e_i0 − e_d0)/(e_c0 − e_d0))^α, the largest f_d at any pressure
+P_BOUND_NS2 = 19  # derived: ‖T̂*‖² below which B ≤ 1 at any Lode angle, pressure and density (a quick exit)
+N_PARAMS = 20
 
 N_STATE = 7
 STATE_NAMES = ("e", "delta_11", "delta_22", "delta_33", "delta_12", "delta_13", "delta_23")
@@ -77,6 +80,8 @@ def derived_constants(prm):
     bracket = 3.0 + a * a - a * np.sqrt(3.0) * ratio ** prm[P_ALPHA]
     prm[P_A] = a
     prm[P_FB_CONST] = (prm[P_EI0] / prm[P_EC0]) ** prm[P_BETA] / bracket
+    prm[P_FD_MAX] = ratio ** prm[P_ALPHA]
+    prm[P_BOUND_NS2] = _inner_radius2(prm)
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
@@ -268,6 +273,164 @@ def rate_scalar(prm, T, e, dl, D, nl):
     return dT, D, M, flags
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def _bound_geometry(prm, T):
+    """(‖L⁻¹:N‖ / f_d, p): the bounding-surface function without its density factor (see :func:`bound_ratio`)."""
+    t0, t1, t2, t3, t4, t5 = T
+    trT = t0 + t1 + t2
+    inv = 1.0 / trT
+    h0 = t0 * inv
+    h1 = t1 * inv
+    h2 = t2 * inv
+    h3 = t3 * inv
+    h4 = t4 * inv
+    h5 = t5 * inv
+    TT = _dot6(h0, h1, h2, h3, h4, h5, h0, h1, h2, h3, h4, h5)
+    s0 = h0 - _THIRD
+    s1 = h1 - _THIRD
+    s2 = h2 - _THIRD
+    ns2 = _dot6(s0, s1, s2, h3, h4, h5, s0, s1, s2, h3, h4, h5)
+    tanpsi = np.sqrt(3.0 * ns2)
+    cos3t = -1.0
+    if ns2 > 1.0e-24:
+        dets = s0 * (s1 * s2 - h5 * h5) - h3 * (h3 * s2 - h5 * h4) + h4 * (h3 * h5 - s1 * h4)
+        cos3t = min(1.0, max(-1.0, -SQRT6 * 3.0 * dets / (ns2 * np.sqrt(ns2))))
+    t2p = tanpsi * tanpsi
+    F = np.sqrt(t2p / 8.0 + (2.0 - t2p) / (2.0 + SQRT2 * tanpsi * cos3t)) - tanpsi / (2.0 * SQRT2)
+    a = prm[P_A]
+    y0 = 2.0 * h0 - _THIRD
+    y1 = 2.0 * h1 - _THIRD
+    y2 = 2.0 * h2 - _THIRD
+    y3 = 2.0 * h3
+    y4 = 2.0 * h4
+    y5 = 2.0 * h5
+    c = a * a * _dot6(h0, h1, h2, h3, h4, h5, y0, y1, y2, y3, y4, y5) / (F * F + a * a * TT)
+    z0 = y0 - c * h0
+    z1 = y1 - c * h1
+    z2 = y2 - c * h2
+    z3 = y3 - c * h3
+    z4 = y4 - c * h4
+    z5 = y5 - c * h5
+    return a / F * np.sqrt(_dot6(z0, z1, z2, z3, z4, z5, z0, z1, z2, z3, z4, z5)), -trT * _THIRD
+
+
+@njit(**KERNEL_OPTIONS)
+def _inner_radius2(prm):
+    """0.98 × the smallest ‖T̂*‖² on the surface f_d(e_i) ‖L⁻¹:N‖/f_d = 1 over the Lode angles (the surface of
+    the loosest state, inside every other one): below it no state can be outside."""
+    rmin = 1.0
+    for j in range(121):
+        th = np.pi / 3.0 * j / 120.0
+        c = np.sqrt(2.0 / 3.0)
+        u = (c * np.cos(th), c * np.cos(th - 2.0 * np.pi / 3.0), c * np.cos(th + 2.0 * np.pi / 3.0))
+        lo = 0.0
+        hi = 1.0 / (3.0 * c)  # the largest radius with all T̂ principal values ≥ 0 at any angle
+        for _ in range(60):
+            r = 0.5 * (lo + hi)
+            T = (-(_THIRD + r * u[0]), -(_THIRD + r * u[1]), -(_THIRD + r * u[2]), 0.0, 0.0, 0.0)
+            if _bound_geometry(prm, T)[0] * prm[P_FD_MAX] > 1.0:
+                hi = r
+            else:
+                lo = r
+        rmin = min(rmin, lo)
+    return 0.98 * rmin * rmin
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def _density_factor(prm, e, p):
+    """f_d at (e, p), with e clipped into [e_d, e_i] as in :func:`rate_scalar`."""
+    ex = np.exp(-np.exp(prm[P_N] * np.log(3.0 * p / prm[P_HS])))
+    ed = prm[P_ED0] * ex
+    ee = min(max(e, ed), prm[P_EI0] * ex)
+    if ee <= ed:
+        return 0.0
+    return np.exp(prm[P_ALPHA] * np.log((ee - ed) / (prm[P_EC0] * ex - ed)))
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def bound_ratio(prm, T, e):
+    """B = ‖L⁻¹:N‖ (N with its f_d): the base model's bounding-surface function, ≤ 1 inside.
+
+    With L = c (F² I + a² T̂⊗T̂) and N = c f_d F a (T̂ + T̂*), Sherman–Morrison gives
+    L⁻¹:N = (a f_d / F) [Y − a² (T̂:Y) T̂ / (F² + a² T̂:T̂)], Y = T̂ + T̂*. B = 1 is the set of stresses at
+    which the base model can deform without a stress rate (peak and critical states): the Matsuoka–Nakai
+    cone of φ_c at f_d = 1, wider for a denser state. T must be admissible (p > 0)."""
+    g, p = _bound_geometry(prm, T)
+    return _density_factor(prm, e, p) * g
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def bound_tuple(prm, T, e):
+    """Bounding-surface rule on a 6-tuple: (T, 0) inside B ≤ 1, else (T with its deviator scaled back
+    onto B = 1 at the same p and Lode angle, BOUNDED).
+
+    Intergranular strain lets the stress leave the base model's bounding surface (overshooting: after
+    repeated small reversals the stiff m_R branch carries it on without the nonlinear term that holds the
+    base model on the surface; Machaček, Tafili & Grandas Tavera, "Overshooting of hypoplastic models with
+    intergranular strain", IJNAMG, doi 10.1002/nag.70375). The surface B = 1 is the base model's own
+    (:func:`bound_ratio`), so the rule has no parameter. Inlined: most states leave at the first test."""
+    t0, t1, t2, t3, t4, t5 = T
+    m = (t0 + t1 + t2) * _THIRD
+    d0 = t0 - m
+    d1 = t1 - m
+    d2 = t2 - m
+    # quick exit: the obliquity ‖T̂*‖² = ‖dev T‖²/(tr T)² inside the smallest surface (or p ≤ 0: the floor's case)
+    if m >= 0.0 or _dot6(d0, d1, d2, t3, t4, t5, d0, d1, d2, t3, t4, t5) <= prm[P_BOUND_NS2] * 9.0 * m * m:
+        return T, 0
+    return _project(prm, T, e)
+
+
+@njit(**KERNEL_OPTIONS)
+def _project(prm, T, e):
+    """The rest of :func:`bound_tuple`. f_d depends on p only, which the scaling of the deviator keeps, so
+    the root G(s) = 1/f_d of the geometric part alone is sought, s ∈ [0, 1] the deviator's scale, by the
+    Illinois variant of regula falsi (G(0) = 0.43 < 1/f_d: the isotropic state is inside, so the root is
+    bracketed; G rises with s)."""
+    g1, p = _bound_geometry(prm, T)
+    # f_d ≤ f_d(e_i) = ((e_i0 − e_d0)/(e_c0 − e_d0))^α at any pressure: no powers needed below that
+    if g1 * prm[P_FD_MAX] <= 1.0:
+        return T, 0
+    fd = _density_factor(prm, e, p)
+    if g1 * fd <= 1.0:
+        return T, 0
+    target = 1.0 / fd
+    t0, t1, t2, t3, t4, t5 = T
+    m = (t0 + t1 + t2) * _THIRD
+    d0 = t0 - m
+    d1 = t1 - m
+    d2 = t2 - m
+    lo, flo = 0.0, _bound_geometry(prm, (m, m, m, 0.0, 0.0, 0.0))[0] - target
+    hi, fhi = 1.0, g1 - target
+    side = 0
+    s = lo
+    for _ in range(60):
+        s = (lo * fhi - hi * flo) / (fhi - flo)
+        f = _bound_geometry(prm, (m + s * d0, m + s * d1, m + s * d2, s * t3, s * t4, s * t5))[0] - target
+        if abs(f) <= 1.0e-13 * target or hi - lo <= 1.0e-15:
+            break
+        if f > 0.0:
+            hi, fhi = s, f
+            if side == 1:
+                flo *= 0.5
+            side = 1
+        else:
+            lo, flo = s, f
+            if side == -1:
+                fhi *= 0.5
+            side = -1
+    return (m + s * d0, m + s * d1, m + s * d2, s * t3, s * t4, s * t5), fl.BOUNDED
+
+
+@njit(**KERNEL_OPTIONS)
+def apply_bound(prm, T, e):
+    """Array form of :func:`bound_tuple` (in place); returns the flag."""
+    r, f = bound_tuple(prm, (T[0], T[1], T[2], T[3], T[4], T[5]), e)
+    if f != 0:
+        for i in range(6):
+            T[i] = r[i]
+    return f
+
+
 @njit(**KERNEL_OPTIONS)
 def rate(prm, T, e, delta, D, dT, ddelta, w):
     """Stress and intergranular-strain increments dT = T̊(D), ddelta = δ̊(D) for the stretching D.
@@ -310,6 +473,7 @@ def euler_tuple(prm, T, e, q, deps, nsub, nl):
     D = (deps[0] * inv, deps[1] * inv, deps[2] * inv, deps[3] * inv, deps[4] * inv, deps[5] * inv)
     vol = volume_ratio(D[0] + D[1] + D[2])
     igs = prm[P_IGS] != 0.0
+    bound = prm[P_BOUND] != 0.0
     R = prm[P_R]
     M = 0.0
     for k in range(nsub):
@@ -334,7 +498,11 @@ def euler_tuple(prm, T, e, q, deps, nsub, nl):
                 flags |= fl.RHO_CLIPPED
             q = (q0 * s, q1 * s, q2 * s, q3 * s, q4 * s, q5 * s)
     T, f = floor_tuple(pmin, T)
-    return T, e, q, M, flags | f
+    flags |= f
+    if bound and f == 0:  # once per increment: the substeps near a pile are many, and the surface moves little
+        T, f = bound_tuple(prm, T, e)
+        flags |= f
+    return T, e, q, M, flags
 
 
 @njit(**KERNEL_OPTIONS)
@@ -422,6 +590,8 @@ def _adaptive(prm, T, state, deps, tol, w):
             state[0] = e1
             if igs:
                 flags |= clip_intergranular(prm, delta)
+            if prm[P_BOUND] != 0.0:
+                flags |= apply_bound(prm, T, e1)
             tk += h
         if err == 0.0:
             h *= 2.0
