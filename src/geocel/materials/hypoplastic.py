@@ -128,20 +128,12 @@ def _dot6(a0, a1, a2, a3, a4, a5, b0, b1, b2, b3, b4, b5):
     return a0 * b0 + a1 * b1 + a2 * b2 + 2.0 * (a3 * b3 + a4 * b4 + a5 * b5)
 
 
-@njit(**KERNEL_OPTIONS)
-def rate_scalar(prm, T, e, dl, D, nl):
-    """Core of :func:`rate` on 6-tuples (kept in registers: no aliasing through scratch arrays).
-
-    ``nl`` multiplies the nonlinear term N‖D‖ (N (δ̂:D) with intergranular strain): max(1, ‖D‖*/‖D‖), the ratio of
-    the non-local to the local norm of the stretching (docs/numerics.md, "Non-local hypoplasticity"), 1 for
-    the local model. Returns (dT, ddelta, M, flags) with dT, ddelta 6-tuples.
-    """
-    flags = 0
+@njit(inline="always", **KERNEL_OPTIONS)
+def _stress_direction(T):
+    """(T̂ as six floats, T̂:T̂, F) of a stress 6-tuple: the stress direction T̂ = T/tr T and von Wolffersdorff's
+    factor F(ψ, θ) of the Matsuoka–Nakai surface (ψ the obliquity, θ the Lode angle)."""
     t0, t1, t2, t3, t4, t5 = T
-    d0, d1, d2, d3, d4, d5 = D
-    trT = t0 + t1 + t2
-    p = -trT * _THIRD
-    inv = 1.0 / trT
+    inv = 1.0 / (t0 + t1 + t2)
     h0 = t0 * inv
     h1 = t1 * inv
     h2 = t2 * inv
@@ -163,6 +155,22 @@ def rate_scalar(prm, T, e, dl, D, nl):
         cos3t = min(1.0, max(-1.0, cos3t))
     t2p = tanpsi * tanpsi
     F = np.sqrt(t2p / 8.0 + (2.0 - t2p) / (2.0 + SQRT2 * tanpsi * cos3t)) - tanpsi / (2.0 * SQRT2)
+    return h0, h1, h2, h3, h4, h5, TT, F
+
+
+@njit(**KERNEL_OPTIONS)
+def rate_scalar(prm, T, e, dl, D, nl):
+    """Core of :func:`rate` on 6-tuples (kept in registers: no aliasing through scratch arrays).
+
+    ``nl`` multiplies the nonlinear term N‖D‖ (N (δ̂:D) with intergranular strain): max(1, ‖D‖*/‖D‖), the ratio of
+    the non-local to the local norm of the stretching (docs/numerics.md, "Non-local hypoplasticity"), 1 for
+    the local model. Returns (dT, ddelta, M, flags) with dT, ddelta 6-tuples.
+    """
+    flags = 0
+    t0, t1, t2, t3, t4, t5 = T
+    d0, d1, d2, d3, d4, d5 = D
+    p = -(t0 + t1 + t2) * _THIRD
+    h0, h1, h2, h3, h4, h5, TT, F = _stress_direction(T)
 
     a = prm[P_A]
     hs = prm[P_HS]
@@ -276,27 +284,7 @@ def rate_scalar(prm, T, e, dl, D, nl):
 @njit(inline="always", **KERNEL_OPTIONS)
 def _bound_geometry(prm, T):
     """(‖L⁻¹:N‖ / f_d, p): the bounding-surface function without its density factor (see :func:`bound_ratio`)."""
-    t0, t1, t2, t3, t4, t5 = T
-    trT = t0 + t1 + t2
-    inv = 1.0 / trT
-    h0 = t0 * inv
-    h1 = t1 * inv
-    h2 = t2 * inv
-    h3 = t3 * inv
-    h4 = t4 * inv
-    h5 = t5 * inv
-    TT = _dot6(h0, h1, h2, h3, h4, h5, h0, h1, h2, h3, h4, h5)
-    s0 = h0 - _THIRD
-    s1 = h1 - _THIRD
-    s2 = h2 - _THIRD
-    ns2 = _dot6(s0, s1, s2, h3, h4, h5, s0, s1, s2, h3, h4, h5)
-    tanpsi = np.sqrt(3.0 * ns2)
-    cos3t = -1.0
-    if ns2 > 1.0e-24:
-        dets = s0 * (s1 * s2 - h5 * h5) - h3 * (h3 * s2 - h5 * h4) + h4 * (h3 * h5 - s1 * h4)
-        cos3t = min(1.0, max(-1.0, -SQRT6 * 3.0 * dets / (ns2 * np.sqrt(ns2))))
-    t2p = tanpsi * tanpsi
-    F = np.sqrt(t2p / 8.0 + (2.0 - t2p) / (2.0 + SQRT2 * tanpsi * cos3t)) - tanpsi / (2.0 * SQRT2)
+    h0, h1, h2, h3, h4, h5, TT, F = _stress_direction(T)
     a = prm[P_A]
     y0 = 2.0 * h0 - _THIRD
     y1 = 2.0 * h1 - _THIRD
@@ -311,7 +299,7 @@ def _bound_geometry(prm, T):
     z3 = y3 - c * h3
     z4 = y4 - c * h4
     z5 = y5 - c * h5
-    return a / F * np.sqrt(_dot6(z0, z1, z2, z3, z4, z5, z0, z1, z2, z3, z4, z5)), -trT * _THIRD
+    return a / F * np.sqrt(_dot6(z0, z1, z2, z3, z4, z5, z0, z1, z2, z3, z4, z5)), -(T[0] + T[1] + T[2]) * _THIRD
 
 
 @njit(**KERNEL_OPTIONS)
