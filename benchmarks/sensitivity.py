@@ -22,6 +22,7 @@ substep (fraction of R). Last line: the largest change (%) over all of them.
 from __future__ import annotations
 
 import argparse
+import re
 import tempfile
 from pathlib import Path
 
@@ -120,7 +121,7 @@ def _rz_run(args) -> tuple:
     d["domain"].update(fine_size=0.3 / cells, void_height=penetration + 0.5)
     d["output"].update(history_every=0.01, fields_every=penetration)
     d.setdefault("solver", {}).update(solver)
-    d["name"] = safe = name.replace(" ", "_")
+    d["name"] = safe = re.sub(r"[^A-Za-z0-9_.+-]+", "_", name).strip("_")  # a run name is a file name
     sim = Simulation(scenario_from_dict(d), out=Path(tmp) / safe, progress=False, write_fields=False)
     t0 = time.perf_counter()
     sim.run()
