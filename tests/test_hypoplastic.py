@@ -662,6 +662,24 @@ def test_bound_ratio_is_one_on_the_critical_cone_at_any_lode_angle(seed):
     assert hp.bound_ratio(PRM_BASE, _tuple(rot6(Q, T)), e_c) == pytest.approx(1.0, abs=1e-10)
 
 
+def test_the_quick_exit_radius_lies_inside_every_surface():
+    """States whose obliquity ‖T̂*‖² is below the kernel's quick-exit radius have B ≤ 1 at the loosest density
+    (the largest f_d), at random Lode angles, orientations and pressures, and the radius is tight (the worst
+    of them is above 0.95)."""
+    rng = np.random.default_rng(7)
+    r2 = PRM_BASE[hp.P_BOUND_NS2]
+    worst = 0.0
+    for _ in range(300):
+        d = rng.normal(size=3)
+        d -= d.mean()
+        d *= math.sqrt(r2) / np.linalg.norm(d)  # ‖T̂*‖ at the radius (principal values of T̂ = 1/3 + d)
+        p = 10 ** rng.uniform(3, 7)
+        T = rot6(special_ortho_group.rvs(3, random_state=rng), np.concatenate([-3 * p * (1 / 3 + d), np.zeros(3)]))
+        e_i = float(BASE.limit_void_ratios(p)[2])
+        worst = max(worst, hp.bound_ratio(PRM_BASE, _tuple(T), e_i))
+    assert 0.95 < worst <= 1.0
+
+
 def test_projection_keeps_mean_stress_and_lode_angle():
     T = np.array([-300e3, -20e3, -90e3, 15e3, -40e3, 5e3])  # far outside at this density
     e = void_for_fd(BASE, 100e3, 0.9)
