@@ -295,7 +295,7 @@ def preset_cmd(
         str | None,
         typer.Option(
             help="quarter | half | full | axisymmetric (r–z, rigid pile, in the pile's frame: 6/12/24 cells per "
-            "pile radius at demo/coarse/paper, S = 10 at 0.125 m/s, 1 m)"
+            "pile radius at demo/coarse/paper, S = 10 at 0.05 m/s, 1 m)"
         ),
     ] = None,
 ) -> None:
@@ -341,10 +341,10 @@ _AXISYMMETRIC_HEADER = """\
 """
 #: measured runtimes of the r–z preset as printed (one thread, Numba cache warm), by resolution
 _AXISYMMETRIC_RUNTIME = {
-    "demo": "6 min 13 s measured on one idle thread, Numba cache warm\n"
-    "# (4 929 soil cells, 116 057 steps); q_b 3.50 MPa and q_s 1.55 kPa at 1 m, inertia check valid.",
-    "coarse": "about 6x the demo's 6 min (cells x steps, estimate).",
-    "paper": "about 35x the demo's 6 min (cells x steps, estimate): a job for a bigger machine.",
+    "demo": "18 min measured on one thread (the other core busy), Numba cache warm\n"
+    "# (4 929 soil cells, 280 637 steps); q_b 2.87 MPa and q_s 1.18 kPa at 1 m, inertia check valid.",
+    "coarse": "about 6x the demo's 18 min (cells x steps, estimate).",
+    "paper": "about 35x the demo's 18 min (cells x steps, estimate): a job for a bigger machine.",
 }
 
 
@@ -625,7 +625,7 @@ def _print_stop(summary: dict, sim) -> None:
 
 def _print_verdict(summary: dict) -> bool:
     """Print the quasi-static check; returns False when it says invalid."""
-    from .solver.quasi_static import inertia_limits, inertia_verdict, verdict
+    from .solver.quasi_static import inertia_limits, inertia_valid_error, inertia_verdict, verdict
 
     ratio = summary["max_energy_ratio"]
     v = verdict(ratio)
@@ -640,9 +640,9 @@ def _print_verdict(summary: dict) -> bool:
         vi = inertia_verdict(inertia, symmetry)
         valid, caution = inertia_limits(symmetry)
         console.print(
-            f"inertia check: max ρ_S v²/q_b = {inertia:.3%} → [bold]{vi}[/bold] (≤ {valid:.2%} valid: q_b "
-            f"within ≈ 5 % of the quasi-static value; ≤ {caution:.2%} caution; lower S or the speed if not "
-            "valid)"
+            f"inertia check: max ρ_S v²/q_b = {100 * inertia:.2g} % → [bold]{vi}[/bold] (≤ {100 * valid:.2g} % "
+            f"valid: q_b within ≈ {inertia_valid_error(symmetry):.0%} of the quasi-static value; ≤ "
+            f"{100 * caution:.2g} % caution; lower S or the speed if not valid)"
         )
         v = "invalid" if vi == "invalid" else v
     return v != "invalid"

@@ -420,8 +420,8 @@ def write_results(
         setup = f"Symmetry `axisymmetric` (the r–z plane), resolution `{resolution}`{cells}"
         forces = (
             "q_b and q_s are those of the whole pile (the r–z forces per radian × 2π, no symmetry factor); the "
-            f"inertia check uses the r–z limits (ρ_S v²/q_b ≤ {valid:.2%} valid, ≤ {caution:.2%} caution: "
-            "docs/validation.md). "
+            f"inertia check uses the r–z limits (ρ_S v²/q_b ≤ {100 * valid:.2g} % valid, ≤ {100 * caution:.2g} % "
+            "caution, calibrated against the quasi-static plateau: docs/validation.md). "
         )
     else:
         heading = "# Deeks & White (2006) pile-jacking benchmark"

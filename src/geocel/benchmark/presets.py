@@ -51,7 +51,7 @@ AXISYMMETRIC_MODEL = {"frame": "pile", "nonlocal_length": 0.1, "pile_element_siz
 SYMMETRIES = ("quarter", "half", "full", "axisymmetric")
 #: what ``geocel preset deeks-white --symmetry axisymmetric`` changes besides the model and the grid: MGS S = 10 at
 #: a speed the r–z inertia check calls valid (docs/validation.md), and a penetration that takes minutes
-AXISYMMETRIC_QUICK = {"velocity": 0.125, "mass_gravity": 10.0, "penetration": 1.0}
+AXISYMMETRIC_QUICK = {"velocity": 0.05, "mass_gravity": 10.0, "penetration": 1.0}
 
 
 def preset_text(name: str) -> str:
