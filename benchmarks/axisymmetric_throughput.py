@@ -1,12 +1,12 @@
 """Throughput of the axisymmetric (r–z) soil step: cell-steps per second of the full step.
 
     NUMBA_NUM_THREADS=1 python benchmarks/axisymmetric_throughput.py [steps] [remap_courant]
-    NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_throughput.py --run [steps] [resolution] [pile]
+    NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_throughput.py --run [steps] [resolution] [pile] [remap_courant]
 
 The first form times the soil step alone (Lagrangian phase, hypoplastic update, remap) on a graded grid of about
 50 000 cells with a punch pressed into it. ``--run`` times whole steps of ``geocel run`` on the r–z preset
-(``geocel preset deeks-white --symmetry axisymmetric``: the pile's frame, the remap every step, the non-local sand,
-contact and outputs) at a resolution (demo | coarse | paper: 6, 12, 24 cells per pile radius; default coarse) with
+(``geocel preset deeks-white --symmetry axisymmetric``: the pile's frame, the deferred remap (or ``remap_courant``),
+the non-local sand, contact and outputs) at a resolution (demo | coarse | paper: 6, 12, 24 cells per pile radius; default coarse) with
 a pile (default coupled), S = 10, 0.5 m/s, after a first run that compiles. Prints the grid, the time per phase
 and, on the last line, ``cell_steps_per_s=<number>``.
 """
@@ -62,7 +62,9 @@ def main(steps: int = 200, remap_courant: float = 0.02) -> float:
     return rate
 
 
-def run(steps: int = 2000, resolution: str = "coarse", pile: str = "coupled") -> float:
+def run(
+    steps: int = 2000, resolution: str = "coarse", pile: str = "coupled", remap_courant: float | None = None
+) -> float:
     import tempfile
 
     from geocel.benchmark.presets import preset_dict
@@ -73,10 +75,11 @@ def run(steps: int = 2000, resolution: str = "coarse", pile: str = "coupled") ->
         "deeks-white", symmetry="axisymmetric", resolution=resolution, pile=pile, penetration=3.0,
         velocity=0.5, scaling=10.0,
     )  # fmt: skip
+    remap = {} if remap_courant is None else {"remap_courant": remap_courant}
     with tempfile.TemporaryDirectory() as tmp:
-        d["solver"] = {"max_steps": 50}
+        d["solver"] = {"max_steps": 50, **remap}
         Simulation(scenario_from_dict(d), out=f"{tmp}/compile", progress=False, write_fields=False).run()
-        d["solver"] = {"max_steps": steps}
+        d["solver"] = {"max_steps": steps, **remap}
         sim = Simulation(scenario_from_dict(d), out=f"{tmp}/run", progress=False, write_fields=False)
         marks: list[float] = []  # the wall clock after every step: the set-up before the first is left out
         s = sim.run(callback=lambda _: marks.append(time.perf_counter()))
@@ -84,7 +87,7 @@ def run(steps: int = 2000, resolution: str = "coarse", pile: str = "coupled") ->
     cells = s["soil_cells"]
     rate = cells * (len(marks) - 1) / wall
     print(f"r–z preset, {resolution} resolution, {pile} pile: {cells} cells, {len(marks) - 1} steps in {wall:.2f} s, "
-          f"Δt {s['dt_last']:.3g} s")  # fmt: skip
+          f"Δt {s['dt_last']:.3g} s, remap_courant {sim.scenario.solver.remap_courant:g}, remaps {s['remaps']}")  # fmt: skip
     print("phase times (s): " + ", ".join(f"{k} {v:.2f}" for k, v in sim.field.timers.items()))
     print(f"cell_steps_per_s={rate:.4g}")
     return rate
@@ -93,6 +96,6 @@ def run(steps: int = 2000, resolution: str = "coarse", pile: str = "coupled") ->
 if __name__ == "__main__":
     args = sys.argv[1:]
     if args and args[0] == "--run":
-        run(*(f(a) for f, a in zip((int, str, str), args[1:], strict=False)))
+        run(*(f(a) for f, a in zip((int, str, str, float), args[1:], strict=False)))
     else:
         main(int(args[0]) if args else 200, float(args[1]) if len(args) > 1 else 0.02)

@@ -625,7 +625,13 @@ def _print_stop(summary: dict, sim) -> None:
 
 def _print_verdict(summary: dict) -> bool:
     """Print the quasi-static check; returns False when it says invalid."""
-    from .solver.quasi_static import inertia_limits, inertia_valid_error, inertia_verdict, verdict
+    from .solver.quasi_static import (
+        inertia_caution_error,
+        inertia_limits,
+        inertia_valid_error,
+        inertia_verdict,
+        verdict,
+    )
 
     ratio = summary["max_energy_ratio"]
     v = verdict(ratio)
@@ -642,7 +648,8 @@ def _print_verdict(summary: dict) -> bool:
         console.print(
             f"inertia check: max ρ_S v²/q_b = {100 * inertia:.2g} % → [bold]{vi}[/bold] (≤ {100 * valid:.2g} % "
             f"valid: q_b within ≈ {inertia_valid_error(symmetry):.0%} of the quasi-static value; ≤ "
-            f"{100 * caution:.2g} % caution; lower S or the speed if not valid)"
+            f"{100 * caution:.2g} % caution: within ≈ {inertia_caution_error(symmetry):.0%}; lower S or the speed "
+            "if not valid)"
         )
         v = "invalid" if vi == "invalid" else v
     return v != "invalid"
