@@ -4,9 +4,17 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numba import get_num_threads
 
 from geocel.config.materials import Elastic, Hypoplastic, MohrCoulomb
-from geocel.euler.axisym import advance_nodes_rz, characteristic_length_rz, node_mass_rz, update_cells_rz
+from geocel.euler.axisym import (
+    FORCE_FACTORS_RZ,
+    NO_SPLIT,
+    advance_nodes_rz,
+    characteristic_length_rz,
+    node_mass_rz,
+    update_cells_rz,
+)
 from geocel.euler.axisym_remap import remap_rz
 from geocel.grid.axisym import AxisymmetricGrid
 from geocel.materials.kernels import model_tag
@@ -37,7 +45,7 @@ def _update(g, mat, Vs, mass, c, v, dt, kappa_s=1.0, b1=0.0, b2=0.0, kappa=0.0):
     return update_cells_rz(
         model_tag(mat.model_id), mat.to_array(), g.rc, g.hr, g.hz, Vs, mass, c["stress"], c["state"], v,
         c["q"], c["hg"], c["modulus"], c["flags"], dt, b1, b2, kappa, kappa_s, 1, *mat.strength_line(),
-        mat.substep_strain(0.1), np.ones(Vs.shape), False,
+        mat.substep_strain(0.1), np.ones(Vs.shape), False, get_num_threads(), NO_SPLIT,
     )  # fmt: skip
 
 
@@ -49,7 +57,7 @@ def _nodal_forces(g, Vs, mass, c):
     zero = np.zeros_like(v)
     fix = np.zeros(v.shape, dtype=np.uint8)
     advance_nodes_rz(g.hr, g.hz, g.rc, Vs, mass, c["stress"], c["q"], c["hg"], nm, v, fix, zero, zero,
-                     zero.copy(), 0.0, 0.0, 1.0, 0.0)  # fmt: skip
+                     zero.copy(), 0.0, 0.0, 1.0, 0.0, np.empty((*Vs.shape, FORCE_FACTORS_RZ)))  # fmt: skip
     return nm[..., None] * v
 
 

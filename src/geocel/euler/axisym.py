@@ -146,8 +146,7 @@ def cell_force_factors_rz(ci, ck, gr_, gz_, nr_, Vs, mass, stress, q, hg, out):
 
 @njit(parallel=True, **KERNEL_OPTIONS)
 def advance_nodes_rz(
-    hr, hz, rc, Vs, mass, stress, q, hg, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt, mtiny,
-    work=None,
+    hr, hz, rc, Vs, mass, stress, q, hg, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt, mtiny, work,
 ):  # fmt: skip
     """v ← v + Δt f/m with stress, viscous, hourglass, gravity and external forces (per radian); then the
     boundary conditions: fixed components take the prescribed velocity ``vfix`` and their reaction
@@ -157,17 +156,14 @@ def advance_nodes_rz(
 
     The forces are those of :func:`node_force_rz`, gathered in two passes: each cell's corner-independent
     factors (:func:`cell_force_factors_rz`) once, into ``work`` ((nr, nz, :data:`FORCE_FACTORS_RZ`), scratch;
-    allocated when not given), then every node sums its ≤ 4 cells with the corners' signs (a node visits
+    required, as every optional argument would be a further compiled signature), then every node sums its ≤ 4 cells with the corners' signs (a node visits
     each of its cells, so the products are formed once instead of four times; equal to round-off).
 
     Energies as in :func:`geocel.euler.lagrange.advance_nodes` (the work of each force with the mean
     velocity v̄ = (v^{n−½} + v^{n+½})/2): returns (kinetic energy at n, work of the stresses, viscous
     dissipation, hourglass dissipation, work of gravity, work of the external forces and reactions), J/rad."""
     ncr, ncz = Vs.shape
-    if work is None:
-        cf = np.empty((ncr, ncz, FORCE_FACTORS_RZ))
-    else:
-        cf = work
+    cf = work
     gr_ = 0.5 / hr
     gz_ = 0.5 / hz
     nr_ = 0.25 / rc
@@ -373,8 +369,8 @@ def update_cells_rz(
     max_sub,
     nlf,
     nonlocal_,
-    nchunk=64,
-    split=NO_SPLIT,
+    nchunk,
+    split,
 ):
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (module
     docstring: D = (D_rr, D_θθ, D_zz, 0, D_rz, 0)Δt, W_13 Δt; the model given by ``tag``; in
