@@ -5,8 +5,8 @@
 
 The first form times the soil step alone (Lagrangian phase, hypoplastic update, remap) on a graded grid of about
 50 000 cells with a punch pressed into it. ``--run`` times whole steps of ``geocel run`` on the r–z preset
-(``geocel preset deeks-white --symmetry axisymmetric``: the pile's frame, the deferred remap (or ``remap_courant``),
-the non-local sand, contact and outputs) at a resolution (demo | coarse | paper: 6, 12, 24 cells per pile radius; default coarse) with
+(``geocel preset deeks-white --symmetry axisymmetric``: the pile's frame, the remap after every step (or after
+``remap_courant`` of a cell), the non-local sand, contact and outputs) at a resolution (demo | coarse | paper: 6, 12, 24 cells per pile radius; default coarse) with
 a pile (default coupled), S = 10, 0.5 m/s, after a first run that compiles. Prints the grid, the time per phase
 and, on the last line, ``cell_steps_per_s=<number>``.
 """

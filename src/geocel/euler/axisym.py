@@ -156,8 +156,9 @@ def advance_nodes_rz(
 
     The forces are those of :func:`node_force_rz`, gathered in two passes: each cell's corner-independent
     factors (:func:`cell_force_factors_rz`) once, into ``work`` ((nr, nz, :data:`FORCE_FACTORS_RZ`), scratch;
-    required, as every optional argument would be a further compiled signature), then every node sums its ≤ 4 cells with the corners' signs (a node visits
-    each of its cells, so the products are formed once instead of four times; equal to round-off).
+    required: an omitted argument makes a further compiled signature), then every node sums its ≤ 4 cells
+    with the corners' signs (a node visits each of its cells, so the products are formed once instead of
+    four times; equal to round-off).
 
     Energies as in :func:`geocel.euler.lagrange.advance_nodes` (the work of each force with the mean
     velocity v̄ = (v^{n−½} + v^{n+½})/2): returns (kinetic energy at n, work of the stresses, viscous

@@ -9,7 +9,8 @@ line, the benchmark, sweeps and the plots.
   acts on, max over tip depths ≥ one diameter. Mass scaling and speed enter as S v², as they do in the
   soil's equation of motion, and the resistance the result is about is in the denominator. Limits
   calibrated on the demo's coupled pile (1.5 cells per pile radius, 1 m) at S v² = 0.0025–2.5 m²/s² against
-  the slowest run (S = 1, 0.05 m/s; docs/validation.md, "The inertia limits in 3D"): ≤ 0.007 % valid (as in
+  the slowest run (S = 1, 0.05 m/s; docs/validation.md, "The quasi-static q_b to 3 m, the demo against it, and the
+  inertia limits in 3D"): ≤ 0.007 % valid (as in
   r–z; the run at 0.0028 % is 8 % from the slowest, the scatter of this coarse grid), ≤ 0.5 % caution (the runs
   at 0.033 % and 0.33 %, S = 1 and 10 at 0.5 m/s, are 15 % off), above invalid (the earlier calibration against
   S = 1 at 0.5 m/s put runs above 1 % another 14–45 % off). The first 3D calibration took S = 1 at 0.5 m/s
