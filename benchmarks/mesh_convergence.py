@@ -3,7 +3,7 @@ between successive ones, and the radial stress in the soil next to the shaft aft
 
     python benchmarks/mesh_convergence.py --mode axisymmetric --cells-per-radius 3 6 12 [--penetration 3]
     python benchmarks/mesh_convergence.py --mode 3d --cells-per-radius 1.5 2 3 [--kind rigid|coupled]
-        [--scaling 10] [--velocity 0.5] [--jobs N] [--threads T] [--out runs/mesh_convergence]
+        [--scaling 10] [--velocity 0.5] [--contact band|edge] [--jobs N] [--threads T] [--out runs/mesh_convergence]
     python benchmarks/mesh_convergence.py --mode axisymmetric --rim split --soil hypoplastic-no-igs ...
     python benchmarks/mesh_convergence.py --mode axisymmetric --frame pile ...   (the grid moves with the base)
     python benchmarks/mesh_convergence.py --mode axisymmetric --nonlocal-length 0.05 ...   (non-local sand)
@@ -99,7 +99,7 @@ def _simulate(d: dict, out: Path):
 
 def run_3d(
     n: float, penetration: float, kind: str, scaling: float, velocity: float, out: Path,
-    container: dict = CONTAINER, **_,
+    container: dict = CONTAINER, contact: str = "band", **_,
 ) -> dict:  # fmt: skip
     from geocel.benchmark.presets import preset_dict
 
@@ -112,7 +112,8 @@ def run_3d(
     d["pile"]["type"] = kind
     d["pile"]["length"] = penetration + 2.0
     d["scaling"]["mass_gravity"] = scaling
-    d["name"] = name = f"3d-{kind}-n{n:g}"
+    d.setdefault("contact", {})["formulation"] = contact
+    d["name"] = name = f"3d-{kind}-n{n:g}" + ("" if contact == "band" else f"-{contact}")
     sim, s, wall, hist = _simulate(d, out)
     f = sim.field
     g = f.grid
@@ -383,6 +384,9 @@ def main() -> None:
         "--container", type=float, nargs=2, default=(CONTAINER["radius"], CONTAINER["soil_depth"]),
         metavar=("RADIUS", "DEPTH"), help="container radius and soil depth, m (4 6; the centrifuge's: 21.25 28)",
     )  # fmt: skip
+    ap.add_argument(
+        "--contact", default="band", choices=("band", "edge"), help="3D only: the contact's formulation"
+    )
     ap.add_argument("--jobs", type=int, default=1, help="runs at a time")
     ap.add_argument("--threads", type=int, default=1, help="Numba threads per run")
     ap.add_argument("--out", type=Path, default=Path("runs/mesh_convergence"))
@@ -411,8 +415,10 @@ def main() -> None:
         a.rim is not None or a.soil != "hypoplastic" or a.frame != "laboratory" or a.nonlocal_length != 0.0
     ):
         ap.error("--rim, --soil, --frame and --nonlocal-length are options of the axisymmetric mode")
+    if a.mode == "axisymmetric" and a.contact != "band":
+        ap.error("--contact is an option of the 3D mode (r–z: --rim)")
     options = {"rim": a.rim, "soil": a.soil, "container": container} | (
-        {"frame": a.frame, "nonlocal_length": a.nonlocal_length} if a.mode == "axisymmetric" else {}
+        {"frame": a.frame, "nonlocal_length": a.nonlocal_length} if a.mode == "axisymmetric" else {"contact": a.contact}
     )
     tasks = [
         (a.mode, n, a.penetration, a.kind, a.scaling, a.velocity, a.out, options) for n in a.cells_per_radius

@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..euler.lagrange import node_force
+from ..euler.lagrange import FORCE_FACTORS, cell_force_factors, gather_node_force
 from ..materials.tensor import KERNEL_OPTIONS
 
 BASE, SHAFT = 0, 1
@@ -368,6 +368,16 @@ def contact_work(
     rx = 0.25 / hx
     ry = 0.25 / hy
     rz = 0.25 / hz
+    nx, ny, nz = Vs.shape
+    # the force factors of the cells around the box's nodes, [i0 − 1, i1) × [j0 − 1, j1) × [k0 − 1, k1)
+    c0, c1, c2 = max(i0 - 1, 0), max(j0 - 1, 0), max(k0 - 1, 0)
+    cf = np.zeros((min(i1, nx) - c0, min(j1, ny) - c1, min(k1, nz) - c2, FORCE_FACTORS))
+    for a in prange(cf.shape[0]):
+        for b in range(cf.shape[1]):
+            if not active[c0 + a, c1 + b]:
+                continue
+            for c in range(cf.shape[2]):
+                cell_force_factors(c0 + a, c1 + b, c2 + c, rx, ry, rz, Vs, mass, stress, q, hg, cf[a, b, c])
     for ii in prange(i1 - i0):
         i = i0 + ii
         for j in range(j0, j1):
@@ -382,11 +392,11 @@ def contact_work(
                 dz = v[i, j, k, 2] - v_trial[ii, jj, kk, 2]
                 if dx == 0.0 and dy == 0.0 and dz == 0.0:
                     continue
-                fs, fq, fh = node_force(i, j, k, rx, ry, rz, active, Vs, mass, stress, q, hg)
+                F = gather_node_force(i, j, k, active, cf, c0, c1, c2, nx, ny, nz)  # f_σ, f_q, f_hg
                 h = 0.5 * dt
-                out[ii, 0] -= (fs[0] * dx + fs[1] * dy + fs[2] * dz) * h
-                out[ii, 1] -= (fq[0] * dx + fq[1] * dy + fq[2] * dz) * h
-                out[ii, 2] -= (fh[0] * dx + fh[1] * dy + fh[2] * dz) * h
+                out[ii, 0] -= (F[0] * dx + F[1] * dy + F[2] * dz) * h
+                out[ii, 1] -= (F[3] * dx + F[4] * dy + F[5] * dz) * h
+                out[ii, 2] -= (F[6] * dx + F[7] * dy + F[8] * dz) * h
                 out[ii, 3] -= m * gravity * dz * h
                 # f_c Δt · v̄ with f_c Δt = m Δv
                 mx = v_old[ii, jj, kk, 0] + v[i, j, k, 0]

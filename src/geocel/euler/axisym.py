@@ -46,7 +46,7 @@ from numba import njit, prange
 from ..materials.flags import SUBSTEP_LIMIT
 from ..materials.kernels import cell_update
 from ..materials.tensor import KERNEL_OPTIONS
-from .lagrange import G_FROM_M, MAX_CELL_SUBSTEPS, PHI_MIN, subpoint_limit, substeps
+from .lagrange import G_FROM_M, MAX_CELL_SUBSTEPS, PHI_MIN, mode_limit, strength_reserve, substeps
 from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
 
 #: components of the hourglass control kept after the material state (generalised stresses of the r and z
@@ -443,10 +443,11 @@ def update_cells_rz(
                 chg = kappa * cd / (4.0 * np.sqrt(area))
                 kfac = kappa_s * gt * dt / 4.0
                 hcell = (h_r, 1.0, h_z)
+                reserve = strength_reserve(s2, c, mf, cf)  # (once for both modes)
                 for d in range(2):
                     h_d = h_r if d == 0 else h_z
                     sq = st2[c, hoff + d] + kfac * qh[d] / (h_d * h_d)
-                    lim = subpoint_limit(s2, c, 2, 2 * d, hcell, mf, cf) / (6.0 * h_d)
+                    lim = mode_limit(s2, c, 2, 2 * d, hcell, mf, reserve) / (6.0 * h_d)
                     sq = min(max(sq, -lim), lim)
                     st2[c, hoff + d] = sq
                     hg[i, k, d] = chg * qh[d] + sq / rho

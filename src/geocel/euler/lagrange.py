@@ -61,23 +61,60 @@ def node_mass(mass, active, out, i0=0, i1=-1, j0=0, j1=-1, k0=0, k1=-1):
                 out[i, j, k] = 0.125 * s
 
 
-@njit(**KERNEL_OPTIONS)
-def node_force(i, j, k, rx, ry, rz, active, Vs, mass, stress, q, hg):
-    """Stress, bulk-viscosity and hourglass forces on node (i, j, k), gathered from its ≤ 8 cells;
-    ``rx, ry, rz`` = 1/(4h) per cell (the shape-function gradient factors, so no division per visit).
+#: per-cell force factors of :func:`cell_force_factors` (the last axis of its output)
+FORCE_FACTORS = 24
 
-    ``hg`` holds the hourglass resistance per unit cell mass, so a cell that the remap has (nearly)
-    emptied exerts a proportionally small force. Returns (f_σ, f_q, f_hg) as three 3-tuples."""
-    fx = 0.0
-    fy = 0.0
-    fz = 0.0
-    px = 0.0
-    py = 0.0
-    pz = 0.0
-    hx_ = 0.0
-    hy_ = 0.0
-    hz_ = 0.0
-    nx, ny, nz = Vs.shape
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def cell_force_factors(ci, cj, ck, rx, ry, rz, Vs, mass, stress, q, hg, out):
+    """The factors of cell (ci, cj, ck)'s nodal forces that do not depend on the corner, into ``out`` (24);
+    ``rx, ry, rz`` = 1/(4h) per cell (the shape-function gradient factors). With the corner's signs ξ, η, ζ the
+    forces of :func:`gather_node_force` are f_σ,a = −(ξ F[3a] + η F[3a+1] +
+    ζ F[3a+2]), f_q = (ξ F[9], η F[10], ζ F[11]), f_hg,d = −(ξη F[12+d] + ηζ F[15+d] + ξζ F[18+d] +
+    ξηζ F[21+d])."""
+    vs = Vs[ci, cj, ck]
+    gx = rx[ci]
+    gy = ry[cj]
+    gz = rz[ck]
+    sxy = stress[ci, cj, ck, 3]
+    sxz = stress[ci, cj, ck, 4]
+    syz = stress[ci, cj, ck, 5]
+    out[0] = vs * stress[ci, cj, ck, 0] * gx
+    out[1] = vs * sxy * gy
+    out[2] = vs * sxz * gz
+    out[3] = vs * sxy * gx
+    out[4] = vs * stress[ci, cj, ck, 1] * gy
+    out[5] = vs * syz * gz
+    out[6] = vs * sxz * gx
+    out[7] = vs * syz * gy
+    out[8] = vs * stress[ci, cj, ck, 2] * gz
+    pq = vs * q[ci, cj, ck]
+    out[9] = pq * gx
+    out[10] = pq * gy
+    out[11] = pq * gz
+    mc = mass[ci, cj, ck]
+    for a in range(4):
+        for d in range(3):
+            out[12 + 3 * a + d] = mc * hg[ci, cj, ck, a, d]
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def gather_node_force(i, j, k, active, cf, o0, o1, o2, nx, ny, nz):
+    """Stress, bulk-viscosity and hourglass forces on node (i, j, k) (grid of nx × ny × nz cells), gathered
+    from the :func:`cell_force_factors` ``cf`` of its ≤ 8 cells, cell (ci, cj, ck) at cf[ci − o0, cj − o1,
+    ck − o2]. The forces: f_σ = −V_s σ·∇N_I (one point), f_q = V_s q ∇N_I, and the hourglass f_I = −Σ_α Q_α h_αI
+    with h = (ξη, ηζ, ξζ, ξηζ) and Q_α the cell's mass times its resistance per unit mass (so a cell the remap
+    has nearly emptied pushes proportionally less). Returns (f_σ, f_q, f_hg) as one flat 9-tuple (a nested one
+    trips Numba's analysis of the parallel loops that call it)."""
+    fs0 = 0.0
+    fs1 = 0.0
+    fs2 = 0.0
+    fq0 = 0.0
+    fq1 = 0.0
+    fq2 = 0.0
+    fh0 = 0.0
+    fh1 = 0.0
+    fh2 = 0.0
     for ci in range(max(i - 1, 0), min(i + 1, nx)):
         xi = 1.0 if ci < i else -1.0
         for cj in range(max(j - 1, 0), min(j + 1, ny)):
@@ -85,52 +122,49 @@ def node_force(i, j, k, rx, ry, rz, active, Vs, mass, stress, q, hg):
                 continue
             eta = 1.0 if cj < j else -1.0
             for ck in range(max(k - 1, 0), min(k + 1, nz)):
-                vs = Vs[ci, cj, ck]
                 zeta = 1.0 if ck < k else -1.0
-                gx = xi * rx[ci]
-                gy = eta * ry[cj]
-                gz = zeta * rz[ck]
-                pq = q[ci, cj, ck]
-                px += vs * pq * gx
-                py += vs * pq * gy
-                pz += vs * pq * gz
-                sxx = stress[ci, cj, ck, 0]
-                syy = stress[ci, cj, ck, 1]
-                szz = stress[ci, cj, ck, 2]
-                sxy = stress[ci, cj, ck, 3]
-                sxz = stress[ci, cj, ck, 4]
-                syz = stress[ci, cj, ck, 5]
-                fx -= vs * (sxx * gx + sxy * gy + sxz * gz)
-                fy -= vs * (sxy * gx + syy * gy + syz * gz)
-                fz -= vs * (sxz * gx + syz * gy + szz * gz)
-                # hourglass: f_I = −Σ_α Q_α h_αI with h = (ξη, ηζ, ξζ, ξηζ)
-                mc = mass[ci, cj, ck]
-                h1 = xi * eta * mc
-                h2 = eta * zeta * mc
-                h3 = xi * zeta * mc
-                h4 = xi * eta * zeta * mc
-                hx_ -= h1 * hg[ci, cj, ck, 0, 0] + h2 * hg[ci, cj, ck, 1, 0]
-                hx_ -= h3 * hg[ci, cj, ck, 2, 0] + h4 * hg[ci, cj, ck, 3, 0]
-                hy_ -= h1 * hg[ci, cj, ck, 0, 1] + h2 * hg[ci, cj, ck, 1, 1]
-                hy_ -= h3 * hg[ci, cj, ck, 2, 1] + h4 * hg[ci, cj, ck, 3, 1]
-                hz_ -= h1 * hg[ci, cj, ck, 0, 2] + h2 * hg[ci, cj, ck, 1, 2]
-                hz_ -= h3 * hg[ci, cj, ck, 2, 2] + h4 * hg[ci, cj, ck, 3, 2]
-    return (fx, fy, fz), (px, py, pz), (hx_, hy_, hz_)
+                c = cf[ci - o0, cj - o1, ck - o2]
+                fs0 -= xi * c[0] + eta * c[1] + zeta * c[2]
+                fs1 -= xi * c[3] + eta * c[4] + zeta * c[5]
+                fs2 -= xi * c[6] + eta * c[7] + zeta * c[8]
+                fq0 += xi * c[9]
+                fq1 += eta * c[10]
+                fq2 += zeta * c[11]
+                h1 = xi * eta
+                h2 = eta * zeta
+                h3 = xi * zeta
+                h4 = h1 * zeta
+                fh0 -= h1 * c[12] + h2 * c[15] + h3 * c[18] + h4 * c[21]
+                fh1 -= h1 * c[13] + h2 * c[16] + h3 * c[19] + h4 * c[22]
+                fh2 -= h1 * c[14] + h2 * c[17] + h3 * c[20] + h4 * c[23]
+    return (fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2)
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gravity, dt, mtiny):
+def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gravity, dt, mtiny, work):
     """v ← v + Δt f/m with stress, viscous, hourglass and gravity forces; boundary conditions.
+
+    The forces are those of :func:`gather_node_force`, in two passes: each cell's corner-independent
+    factors (:func:`cell_force_factors`) once, into ``work`` ((nx, ny, nz, :data:`FORCE_FACTORS`), scratch),
+    then every node sums its ≤ 8 cells with the corners' signs (each cell's products are formed once instead
+    of eight times; equal to round-off).
 
     Energy accounting consistent with the central-difference scheme: the work of every force fⁿ over the
     step uses the mean velocity v̄ = (v^{n−½} + v^{n+½})/2, and the kinetic energy is ½ m v̄².
     Returns (kinetic energy at n, work of the stresses = internal-energy increment, viscous and hourglass
     dissipation, work of gravity)."""
     nx, ny, nz = Vs.shape
-    acc = np.zeros((nx + 1, 5))
+    cf = work
     rx = 0.25 / hx
     ry = 0.25 / hy
     rz = 0.25 / hz
+    for ci in prange(nx):
+        for cj in range(ny):
+            if not active[ci, cj]:
+                continue
+            for ck in range(nz):
+                cell_force_factors(ci, cj, ck, rx, ry, rz, Vs, mass, stress, q, hg, cf[ci, cj, ck])
+    acc = np.zeros((nx + 1, 5))
     for i in prange(nx + 1):
         ke = 0.0
         wi = 0.0
@@ -145,11 +179,13 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
                     v[i, j, k, 1] = 0.0
                     v[i, j, k, 2] = 0.0
                     continue
-                fs, fq, fh = node_force(i, j, k, rx, ry, rz, active, Vs, mass, stress, q, hg)
+                fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2 = gather_node_force(
+                    i, j, k, active, cf, 0, 0, 0, nx, ny, nz
+                )
                 fgz = -m * gravity
-                fx = fs[0] + fq[0] + fh[0]
-                fy = fs[1] + fq[1] + fh[1]
-                fz = fs[2] + fq[2] + fh[2] + fgz
+                fx = fs0 + fq0 + fh0
+                fy = fs1 + fq1 + fh1
+                fz = fs2 + fq2 + fh2 + fgz
                 c = dt / m
                 ox = v[i, j, k, 0]
                 oy = v[i, j, k, 1]
@@ -170,9 +206,9 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
                 my = 0.5 * (oy + vy)
                 mz = 0.5 * (oz + vz)
                 ke += 0.5 * m * (mx * mx + my * my + mz * mz)
-                wi -= (fs[0] * mx + fs[1] * my + fs[2] * mz) * dt
-                wv -= (fq[0] * mx + fq[1] * my + fq[2] * mz) * dt
-                wh -= (fh[0] * mx + fh[1] * my + fh[2] * mz) * dt
+                wi -= (fs0 * mx + fs1 * my + fs2 * mz) * dt
+                wv -= (fq0 * mx + fq1 * my + fq2 * mz) * dt
+                wh -= (fh0 * mx + fh1 * my + fh2 * mz) * dt
                 wg += fgz * mz * dt
         acc[i, 0] = ke
         acc[i, 1] = wi
@@ -188,17 +224,25 @@ G_FROM_M = 0.375
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
-def subpoint_limit(s2, c, a, d, h, mf, cf):
-    """Largest amplitude A (Pa) of mode α's stress variation in direction d that keeps both sub-point
-    stresses σ ± A P of the cell within the strength cone q ≤ mf p + cf (exact for the cone, not
-    linearised): a variation along the cone is free, one across it is bounded by the strength reserve.
-    P is uniaxial e_d⊗e_d for the bending modes (d among the mode's coordinates, and ξηζ) and the shear
-    e_d⊗e_b + e_b⊗e_d of the warping modes (b the mode's coordinate with the smaller cell size)."""
+def strength_reserve(s2, c, mf, cf):
+    """The parts of :func:`subpoint_limit` that depend on cell ``c``'s stress only (computed once per cell for
+    all its modes), as one flat tuple: the deviator's diagonal (three), L0 = ``mf`` p + ``cf`` (the cone's q at
+    the cell's p) and q² − L0² (≥ 0: the stress is on or outside the cone)."""
     p = -(s2[c, 0] + s2[c, 1] + s2[c, 2]) / 3.0
-    sd = (s2[c, 0] + p, s2[c, 1] + p, s2[c, 2] + p)
-    q2 = 1.5 * (sd[0] ** 2 + sd[1] ** 2 + sd[2] ** 2 + 2.0 * (s2[c, 3] ** 2 + s2[c, 4] ** 2 + s2[c, 5] ** 2))
+    sd0 = s2[c, 0] + p
+    sd1 = s2[c, 1] + p
+    sd2 = s2[c, 2] + p
+    q2 = 1.5 * (sd0**2 + sd1**2 + sd2**2 + 2.0 * (s2[c, 3] ** 2 + s2[c, 4] ** 2 + s2[c, 5] ** 2))
     L0 = mf * p + cf
-    if L0 <= 0.0:
+    return (sd0, sd1, sd2, L0, q2 - L0 * L0)
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def mode_limit(s2, c, a, d, h, mf, reserve):
+    """:func:`subpoint_limit` from the cell's :func:`strength_reserve`."""
+    L0 = reserve[3]
+    c0_ = reserve[4]
+    if L0 <= 0.0 or c0_ >= 0.0:
         return 0.0
     b = -1
     if a != 3:
@@ -208,19 +252,26 @@ def subpoint_limit(s2, c, a, d, h, mf, cf):
             b = b0 if h[b0] <= h[c0] else c0
     if b < 0:  # uniaxial: s_P:s_P = 2/3, p_P = −1/3, s:s_P = s_dd
         a2 = 1.0 - mf * mf / 9.0
-        b1 = 3.0 * sd[d] + 2.0 * mf * L0 / 3.0
+        b1 = 3.0 * reserve[d] + 2.0 * mf * L0 / 3.0
     else:  # shear: s_P:s_P = 2, p_P = 0, s:s_P = 2 s_db
         lo = min(d, b)
         hi = max(d, b)
         sdb = s2[c, 3] if lo == 0 and hi == 1 else (s2[c, 4] if lo == 0 else s2[c, 5])
         a2 = 3.0
         b1 = 6.0 * sdb
-    c0_ = q2 - L0 * L0
-    if c0_ >= 0.0:
-        return 0.0
     if a2 <= 1e-12:
         return -c0_ / max(abs(b1), 1e-300)
     return (-abs(b1) + np.sqrt(b1 * b1 - 4.0 * a2 * c0_)) / (2.0 * a2)
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def subpoint_limit(s2, c, a, d, h, mf, cf):
+    """Largest amplitude A (Pa) of mode α's stress variation in direction d that keeps both sub-point
+    stresses σ ± A P of the cell within the strength cone q ≤ mf p + cf (exact for the cone, not
+    linearised): a variation along the cone is free, one across it is bounded by the strength reserve.
+    P is uniaxial e_d⊗e_d for the bending modes (d among the mode's coordinates, and ξηζ) and the shear
+    e_d⊗e_b + e_b⊗e_d of the warping modes (b the mode's coordinate with the smaller cell size)."""
+    return mode_limit(s2, c, a, d, h, mf, strength_reserve(s2, c, mf, cf))
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
@@ -233,10 +284,12 @@ def hourglass_stiffness(a, d, hx, hy, hz):
     With half-sizes A_x = h_x/2 …: bending K = E V/(3 A_d²) (ξηζ: E V/(9 A_d²)); warping
     K = G V (A_b⁻² + A_c⁻²)/3 over the mode's coordinates b, c. The generalised stress rate is then
     Q̇_αd = K_αd q_αd / 64 (U = ½ K (u_αd/8)², f_I = −Σ Q_αd h_αI)."""
-    i4x = 4.0 / (hx * hx)  # 1/A² with A = h/2
-    i4y = 4.0 / (hy * hy)
-    i4z = 4.0 / (hz * hz)
-    inv = (i4x, i4y, i4z)
+    return mode_stiffness(a, d, (4.0 / (hx * hx), 4.0 / (hy * hy), 4.0 / (hz * hz)))  # 1/A² with A = h/2
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def mode_stiffness(a, d, inv):
+    """:func:`hourglass_stiffness` from the cell's 1/A² per direction ``inv`` (computed once per cell)."""
     if a == 3:
         return 3.0 * inv[d] / 9.0
     # the mode's two coordinates: ξη → (x, y), ηζ → (y, z), ξζ → (x, z)
@@ -432,12 +485,16 @@ def update_cells(
                     chg = kappa * cd * a23 / 8.0
                     kfac = kappa_s * gt * dt / 64.0
                     hcell = (hx[i], hy[j], hz[k])
+                    # what the 12 modes share, once per cell (the stores below could alias the stress, so
+                    # the compiler would otherwise reload and recompute it for every mode)
+                    inv = (4.0 / (hx[i] * hx[i]), 4.0 / (hy[j] * hy[j]), 4.0 / (hz[k] * hz[k]))
+                    reserve = strength_reserve(s2, c, mf, cf)
                     for a in range(4):
                         for d in range(3):
                             sq = st2[c, hoff + 3 * a + d]
-                            sq += kfac * hourglass_stiffness(a, d, hx[i], hy[j], hz[k]) * qh[3 * a + d]
+                            sq += kfac * mode_stiffness(a, d, inv) * qh[3 * a + d]
                             fac = (36.0 if a == 3 else 12.0) * hcell[d]  # stress amplitude per sq
-                            lim = subpoint_limit(s2, c, a, d, hcell, mf, cf) / fac
+                            lim = mode_limit(s2, c, a, d, hcell, mf, reserve) / fac
                             sq = min(max(sq, -lim), lim)
                             st2[c, hoff + 3 * a + d] = sq
                             hg[i, j, k, a, d] = chg * qh[3 * a + d] + sq / rho

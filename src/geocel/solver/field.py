@@ -17,6 +17,7 @@ from numba import njit, prange
 
 from ..config.materials import Elastic, Hypoplastic, MohrCoulomb, Tresca
 from ..euler.lagrange import (
+    FORCE_FACTORS,
     PHI_MIN,
     advance_nodes,
     characteristic_length,
@@ -227,6 +228,7 @@ class SoilField(FieldBalances):
         self.state = np.zeros(shape + (nstate + HOURGLASS_STATE,))
         self.q = np.zeros(shape)
         self.hg = np.zeros(shape + (4, 3))
+        self._force_factors = np.empty(shape + (FORCE_FACTORS,))  # scratch of the nodal pass
         self.modulus = np.zeros(shape)
         self.flags = np.zeros(shape, dtype=np.int64)
         self.fbar = np.zeros(shape)
@@ -360,6 +362,7 @@ class SoilField(FieldBalances):
             self.gravity,
             dt,
             self.mass_tiny,
+            self._force_factors,
         )
         if self.contact is not None:
             self.contact.apply(dt)
