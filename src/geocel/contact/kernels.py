@@ -371,8 +371,11 @@ def contact_work(
     nx, ny, nz = Vs.shape
     # the force factors of the cells around the box's nodes, [i0 − 1, i1) × [j0 − 1, j1) × [k0 − 1, k1)
     c0, c1, c2 = max(i0 - 1, 0), max(j0 - 1, 0), max(k0 - 1, 0)
-    cf = np.zeros((min(i1, nx) - c0, min(j1, ny) - c1, min(k1, nz) - c2, FORCE_FACTORS))
-    for a in prange(cf.shape[0]):
+    # (np.empty: in a parallel kernel np.zeros becomes a parallel loop of its own, handed out one element at a
+    # time under the run's chunk size 1; the factors of masked columns are never read. Serial: the box holds a
+    # few hundred cells)
+    cf = np.empty((min(i1, nx) - c0, min(j1, ny) - c1, min(k1, nz) - c2, FORCE_FACTORS))
+    for a in range(cf.shape[0]):
         for b in range(cf.shape[1]):
             if not active[c0 + a, c1 + b]:
                 continue

@@ -171,7 +171,7 @@ def advance_nodes_rz(
     for ci in prange(ncr):
         for ck in range(ncz):
             cell_force_factors_rz(ci, ck, gr_, gz_, nr_, Vs, mass, stress, q, hg, cf[ci, ck])
-    acc = np.zeros((ncr + 1, 6))
+    acc = np.empty((ncr + 1, 6))  # (every row is written; np.zeros would be a parallel loop of its own)
     a_half = 0.5 * damping * dt
     for i in prange(ncr + 1):
         ke = 0.0
@@ -241,7 +241,10 @@ def advance_nodes_rz(
         acc[i, 3] = wh
         acc[i, 4] = wg
         acc[i, 5] = wx
-    t = acc.sum(axis=0)
+    t = np.zeros(6)  # (serial: a reduction over the rows would be handed out one row per chunk)
+    for i in range(acc.shape[0]):
+        for c in range(6):
+            t[c] += acc[i, c]
     return t[0], t[1], t[2], t[3], t[4], t[5]
 
 

@@ -164,7 +164,7 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
                 continue
             for ck in range(nz):
                 cell_force_factors(ci, cj, ck, rx, ry, rz, Vs, mass, stress, q, hg, cf[ci, cj, ck])
-    acc = np.zeros((nx + 1, 5))
+    acc = np.empty((nx + 1, 5))  # (every row is written; np.zeros would be a parallel loop of its own)
     for i in prange(nx + 1):
         ke = 0.0
         wi = 0.0
@@ -215,7 +215,10 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
         acc[i, 2] = wv
         acc[i, 3] = wh
         acc[i, 4] = wg
-    t = acc.sum(axis=0)
+    t = np.zeros(5)  # (serial: a reduction over the rows would be handed out one row per chunk)
+    for i in range(acc.shape[0]):
+        for c in range(5):
+            t[c] += acc[i, c]
     return t[0], t[1], t[2], t[3], t[4]
 
 

@@ -96,7 +96,7 @@ def accumulate_displacement(rx, ry, rz, v, dt, u):
     """u ← u + v Δt at every node. Returns the largest |u_d| r_d over the nodes and directions, with r_d the
     reciprocal node spacing (:func:`node_spacing`): the Courant number of the pending remap."""
     n1, n2, n3, _ = v.shape
-    cmax = np.zeros(n1)
+    cmax = np.empty(n1)  # (np.empty: np.zeros and .max() would be parallel loops of their own, one element per chunk)
     for i in prange(n1):
         c = 0.0
         for j in range(n2):
@@ -109,20 +109,26 @@ def accumulate_displacement(rx, ry, rz, v, dt, u):
                 u[i, j, k, 2] = uz
                 c = max(c, abs(ux) * rx[i], abs(uy) * ry[j], abs(uz) * rz[k])
         cmax[i] = c
-    return cmax.max()
+    m = 0.0
+    for i in range(n1):
+        m = max(m, cmax[i])
+    return m
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
 def _kinetic_energy(nmass, v):
     nx, ny, nz = nmass.shape
-    ke = np.zeros(nx)
+    ke = np.empty(nx)
     for i in prange(nx):
         s = 0.0
         for j in range(ny):
             for k in range(nz):
                 s += 0.5 * nmass[i, j, k] * (v[i, j, k, 0] ** 2 + v[i, j, k, 1] ** 2 + v[i, j, k, 2] ** 2)
         ke[i] = s
-    return ke.sum()
+    t = 0.0
+    for i in range(nx):
+        t += ke[i]
+    return t
 
 
 @dataclass
