@@ -278,7 +278,7 @@ def subpoint_limit(s2, c, a, d, h, mf, cf):
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
-def hourglass_stiffness(a, d, hx, hy, hz):
+def hourglass_stiffness(a, d, inv):
     """Stiffness K_αd/(G V) of hourglass mode α (ξη, ηζ, ξζ, ξηζ) in direction d of a rectangular cell,
     from the strain energy of the mode's velocity field v_d = (q_αd/8) H_α with assumed strains
     (Belytschko & Bindeman 1993): the normal strain ∂v_d/∂x_d of a bending mode (d among the mode's
@@ -286,13 +286,8 @@ def hourglass_stiffness(a, d, hx, hy, hz):
     shear (varying along x_d) dropped; the shears of a warping mode (d not among them) are kept at G.
     With half-sizes A_x = h_x/2 …: bending K = E V/(3 A_d²) (ξηζ: E V/(9 A_d²)); warping
     K = G V (A_b⁻² + A_c⁻²)/3 over the mode's coordinates b, c. The generalised stress rate is then
-    Q̇_αd = K_αd q_αd / 64 (U = ½ K (u_αd/8)², f_I = −Σ Q_αd h_αI)."""
-    return mode_stiffness(a, d, (4.0 / (hx * hx), 4.0 / (hy * hy), 4.0 / (hz * hz)))  # 1/A² with A = h/2
-
-
-@njit(inline="always", **KERNEL_OPTIONS)
-def mode_stiffness(a, d, inv):
-    """:func:`hourglass_stiffness` from the cell's 1/A² per direction ``inv`` (computed once per cell)."""
+    Q̇_αd = K_αd q_αd / 64 (U = ½ K (u_αd/8)², f_I = −Σ Q_αd h_αI). ``inv``: the cell's 1/A² per direction,
+    (4/h_x², 4/h_y², 4/h_z²), computed once per cell."""
     if a == 3:
         return 3.0 * inv[d] / 9.0
     # the mode's two coordinates: ξη → (x, y), ηζ → (y, z), ξζ → (x, z)
@@ -495,7 +490,7 @@ def update_cells(
                     for a in range(4):
                         for d in range(3):
                             sq = st2[c, hoff + 3 * a + d]
-                            sq += kfac * mode_stiffness(a, d, inv) * qh[3 * a + d]
+                            sq += kfac * hourglass_stiffness(a, d, inv) * qh[3 * a + d]
                             fac = (36.0 if a == 3 else 12.0) * hcell[d]  # stress amplitude per sq
                             lim = mode_limit(s2, c, a, d, hcell, mf, reserve) / fac
                             sq = min(max(sq, -lim), lim)
