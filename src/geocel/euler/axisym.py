@@ -46,7 +46,15 @@ from numba import njit, prange
 from ..materials.flags import SUBSTEP_LIMIT
 from ..materials.kernels import cell_update
 from ..materials.tensor import KERNEL_OPTIONS
-from .lagrange import G_FROM_M, MAX_CELL_SUBSTEPS, PHI_MIN, mode_limit, strength_reserve, substeps
+from .lagrange import (
+    G_FROM_M,
+    MAX_CELL_SUBSTEPS,
+    PHI_MIN,
+    column_sums,
+    mode_limit,
+    strength_reserve,
+    substeps,
+)
 from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
 
 #: components of the hourglass control kept after the material state (generalised stresses of the r and z
@@ -241,10 +249,7 @@ def advance_nodes_rz(
         acc[i, 3] = wh
         acc[i, 4] = wg
         acc[i, 5] = wx
-    t = np.zeros(6)  # (serial: a reduction over the rows would be handed out one row per chunk)
-    for i in range(acc.shape[0]):
-        for c in range(6):
-            t[c] += acc[i, c]
+    t = column_sums(acc)
     return t[0], t[1], t[2], t[3], t[4], t[5]
 
 

@@ -61,6 +61,18 @@ def node_mass(mass, active, out, i0=0, i1=-1, j0=0, j1=-1, k0=0, k1=-1):
                 out[i, j, k] = 0.125 * s
 
 
+@njit(**KERNEL_OPTIONS)
+def column_sums(acc):
+    """Σ_i acc[i, :] of a kernel's per-row partial sums. Serial and outside the parallel kernel: there a
+    reduction (or the np.zeros of its result) would be a parallel loop of its own, handed out one row at a time
+    under the run's chunk size 1."""
+    t = np.zeros(acc.shape[1])
+    for i in range(acc.shape[0]):
+        for c in range(acc.shape[1]):
+            t[c] += acc[i, c]
+    return t
+
+
 #: per-cell force factors of :func:`cell_force_factors` (the last axis of its output)
 FORCE_FACTORS = 24
 
@@ -215,10 +227,7 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
         acc[i, 2] = wv
         acc[i, 3] = wh
         acc[i, 4] = wg
-    t = np.zeros(5)  # (serial: a reduction over the rows would be handed out one row per chunk)
-    for i in range(acc.shape[0]):
-        for c in range(5):
-            t[c] += acc[i, c]
+    t = column_sums(acc)
     return t[0], t[1], t[2], t[3], t[4]
 
 
