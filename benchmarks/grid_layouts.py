@@ -65,6 +65,28 @@ def nested_blocks(a: argparse.Namespace, buffer: int) -> list[tuple[float, int]]
         X, Z = X + buffer * h, Z + buffer * h
 
 
+def nested_columns(a: argparse.Namespace, buffer: int) -> list[tuple[float, int]]:
+    """(cell size in plan, active cells) of every level of nested columns: boxes [0, X]² in plan of cells h,
+    2h, 4h, … each holding ``buffer`` of its cells around the finer one, all through the whole depth on the
+    tensor product's graded z edges (the interfaces are vertical planes only), masked by the container."""
+    rows = len(graded_edges(a.depth, a.fine_size, a.fine_depth, a.growth, a.max_size)) - 1
+    rows += round(a.void / a.fine_size)
+    levels = []
+    X, h, finer = a.fine_radius, a.fine_size, None
+    while True:
+        X = min(a.radius, X)
+        xs = (np.arange(math.ceil(X / h)) + 0.5) * h
+        cells = (xs[:, None] ** 2 + xs[None, :] ** 2) <= a.radius**2
+        if finer is not None:
+            cells &= ~((xs[:, None] < finer) & (xs[None, :] < finer))
+        levels.append((h, int(cells.sum()) * rows))
+        if X >= a.radius:
+            return levels
+        finer = X
+        h *= 2.0
+        X = X + buffer * h
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--fine-size", type=float, default=0.1, help="m")
@@ -93,6 +115,12 @@ def main() -> None:
         n = sum(c for _, c in levels)
         first = n if first is None else first
         name = f"nested 2:1 blocks, buffer {b}"
+        print(f"{name:44s} {n:8d} {a.fine_size:20.4f} {n / a.fine_size / ref:18.3f}")
+        print("    levels: " + ", ".join(f"{h:g} m: {c}" for h, c in levels))
+    for b in a.buffer:
+        levels = nested_columns(a, b)
+        n = sum(c for _, c in levels)
+        name = f"nested 2:1 columns (z graded), buffer {b}"
         print(f"{name:44s} {n:8d} {a.fine_size:20.4f} {n / a.fine_size / ref:18.3f}")
         print("    levels: " + ", ".join(f"{h:g} m: {c}" for h, c in levels))
     nr = len(xe) - 1

@@ -136,6 +136,19 @@ class Domain(_Table):
         1.15, ge=1.0, le=2.0, description="largest ratio of neighbouring cell sizes outside the fine zone, -"
     )
     max_size: float | None = Field(None, gt=0.0, description="largest cell size, m (None: no limit)")
+    layout: Literal["tensor", "nested"] = Field(
+        "tensor",
+        description="3D grid layout: tensor (graded edges in x, y, z: the fine spacing runs through the whole "
+        "container in each direction) or nested (2:1 columns: boxes of fine_size, 2 fine_size, 4 fine_size … "
+        "cells in plan around the axis, each `buffer` of its cells wider than the finer one, all on the graded "
+        'z edges; far fewer cells at the same fine size; docs/numerics.md, "Nested 2:1 columns")',
+    )
+    buffer: int = Field(
+        4,
+        ge=1,
+        le=32,
+        description="nested layout: cells of each coarser level around the finer level's box, -",
+    )
     frame: Literal["laboratory", "pile"] = Field(
         "laboratory",
         description="the grid's frame: laboratory (fixed; the pile's base moves through the node rows) or pile "
@@ -146,6 +159,12 @@ class Domain(_Table):
 
     @model_validator(mode="after")
     def _check(self) -> Domain:
+        if self.layout == "nested" and self.symmetry == "axisymmetric":
+            raise _invalid(
+                ("layout",),
+                self.layout,
+                'nested columns are a 3D layout (symmetry = "axisymmetric" has its own grid)',
+            )
         if self.frame == "pile" and self.symmetry != "axisymmetric":
             raise _invalid(("frame",), self.frame, 'the pile\'s frame needs symmetry = "axisymmetric"')
         if self.fine_size >= self.radius:

@@ -152,6 +152,30 @@ def gather_node_force(i, j, k, active, cf, o0, o1, o2, nx, ny, nz):
     return (fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2)
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def advance_node(m, g, ox, oy, oz, fixx, fixy, fixz, gravity, dt):
+    """One node's central-difference update v ← v + Δt f/m from the forces ``g`` of
+    :func:`gather_node_force` plus gravity on its mass m, with its fixed components zero. Returns the new
+    velocity and the node's energy terms over the step (kinetic energy ½ m v̄² at the mean velocity v̄, and
+    the work −f·v̄ Δt of the stresses, the bulk viscosity and the hourglass forces, and gravity's work) as one
+    flat 8-tuple."""
+    fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2 = g
+    fgz = -m * gravity
+    c = dt / m
+    vx = 0.0 if fixx else ox + c * (fs0 + fq0 + fh0)
+    vy = 0.0 if fixy else oy + c * (fs1 + fq1 + fh1)
+    vz = 0.0 if fixz else oz + c * (fs2 + fq2 + fh2 + fgz)
+    mx = 0.5 * (ox + vx)
+    my = 0.5 * (oy + vy)
+    mz = 0.5 * (oz + vz)
+    ke = 0.5 * m * (mx * mx + my * my + mz * mz)
+    wi = -(fs0 * mx + fs1 * my + fs2 * mz) * dt
+    wv = -(fq0 * mx + fq1 * my + fq2 * mz) * dt
+    wh = -(fh0 * mx + fh1 * my + fh2 * mz) * dt
+    wg = fgz * mz * dt
+    return vx, vy, vz, ke, wi, wv, wh, wg
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
 def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gravity, dt, mtiny, work):
     """v ← v + Δt f/m with stress, viscous, hourglass and gravity forces; boundary conditions.
@@ -191,37 +215,19 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
                     v[i, j, k, 1] = 0.0
                     v[i, j, k, 2] = 0.0
                     continue
-                fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2 = gather_node_force(
-                    i, j, k, active, cf, 0, 0, 0, nx, ny, nz
-                )
-                fgz = -m * gravity
-                fx = fs0 + fq0 + fh0
-                fy = fs1 + fq1 + fh1
-                fz = fs2 + fq2 + fh2 + fgz
-                c = dt / m
-                ox = v[i, j, k, 0]
-                oy = v[i, j, k, 1]
-                oz = v[i, j, k, 2]
-                vx = ox + c * fx
-                vy = oy + c * fy
-                vz = oz + c * fz
-                if fix[i, j, k, 0]:
-                    vx = 0.0
-                if fix[i, j, k, 1]:
-                    vy = 0.0
-                if fix[i, j, k, 2]:
-                    vz = 0.0
+                g = gather_node_force(i, j, k, active, cf, 0, 0, 0, nx, ny, nz)
+                vx, vy, vz, e0, e1, e2, e3, e4 = advance_node(
+                    m, g, v[i, j, k, 0], v[i, j, k, 1], v[i, j, k, 2], fix[i, j, k, 0], fix[i, j, k, 1],
+                    fix[i, j, k, 2], gravity, dt,
+                )  # fmt: skip
                 v[i, j, k, 0] = vx
                 v[i, j, k, 1] = vy
                 v[i, j, k, 2] = vz
-                mx = 0.5 * (ox + vx)
-                my = 0.5 * (oy + vy)
-                mz = 0.5 * (oz + vz)
-                ke += 0.5 * m * (mx * mx + my * my + mz * mz)
-                wi -= (fs0 * mx + fs1 * my + fs2 * mz) * dt
-                wv -= (fq0 * mx + fq1 * my + fq2 * mz) * dt
-                wh -= (fh0 * mx + fh1 * my + fh2 * mz) * dt
-                wg += fgz * mz * dt
+                ke += e0
+                wi += e1
+                wv += e2
+                wh += e3
+                wg += e4
         acc[i, 0] = ke
         acc[i, 1] = wi
         acc[i, 2] = wv

@@ -359,6 +359,25 @@ def remap(
     recomputes from the result). The mesh motion of the Lagrangian phase is v Δt, or ``displacement``
     (node displacements accumulated over several steps, m; ``dt`` is then ignored). Returns (mass lost
     through the top, soil volume capped)."""
+    sweeps = remap_sweeps(
+        hx, hy, hz, active2d, active3, v, dt, Vs, Vcur, mass, stress, state, nmass, fbar, parity, mtiny,
+        rho_lo, rho_hi, displacement,
+    )  # fmt: skip
+    while True:
+        try:
+            next(sweeps)
+        except StopIteration as done:
+            return done.value
+
+
+def remap_sweeps(
+    hx, hy, hz, active2d, active3, v, dt, Vs, Vcur, mass, stress, state, nmass, fbar, parity, mtiny,
+    rho_lo=0.0, rho_hi=np.inf, displacement=None,
+):  # fmt: skip
+    """:func:`remap` as a generator that pauses after each sweep's cell pass and after its node pass, yielding
+    ``("cells", axis, v_mesh, dt)`` and ``("nodes", axis, m_cur)`` (the current nodal masses), so that a
+    composite of grids (:mod:`geocel.solver.composite`) can exchange its interfaces' fluxes in between;
+    returns (mass lost through the top, soil volume capped)."""
     # every cell sweep uses the mesh motion of the Lagrangian phase; the node sweeps advect v itself
     if displacement is None:
         v_mesh = v.copy()
@@ -395,8 +414,10 @@ def remap(
         )
         lost += l
         capped += c
+        yield "cells", axis, v_mesh, dt
         sweep_nodes(fbar.transpose(p), m_cur.transpose(p), m_next.transpose(p), v.transpose(pc), mtiny)
         m_cur, m_next = m_next, m_cur
+        yield "nodes", axis, m_cur
     if m_cur is not nmass:
         nmass[...] = m_cur
     return lost, capped

@@ -1,5 +1,5 @@
 """Eulerian grids."""
 
-from .graded import Grid, graded_edges
+from .graded import Grid, graded_edges, graded_z
 
-__all__ = ["Grid", "graded_edges"]
+__all__ = ["Grid", "graded_edges", "graded_z"]

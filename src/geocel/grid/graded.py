@@ -55,6 +55,19 @@ def graded_edges(
     return out
 
 
+def graded_z(
+    depth: float, void: float, fine: float, fine_depth: float, growth: float, max_size: float | None = None
+) -> np.ndarray:
+    """Node z coordinates (m, increasing) of a graded soil column of ``depth`` below the surface z = 0 (fine
+    cells to ``fine_depth``, then growing by ``growth``, :func:`graded_edges`) and the void above it in cells of
+    about ``fine`` (at least one)."""
+    z = -graded_edges(depth, fine, fine_depth, growth, max_size)[::-1]
+    if void > 0:
+        n_void = max(1, int(np.ceil(void / fine - 1e-9)))
+        z = np.concatenate([z, np.linspace(0.0, void, n_void + 1)[1:]])
+    return z
+
+
 @dataclass
 class Grid:
     """Node coordinates of a tensor-product grid and the mask of active columns.
@@ -118,11 +131,7 @@ class Grid:
             y = x.copy()
         else:
             raise ValueError(f"symmetry = {symmetry!r}: choose one of {SYMMETRIES}")
-        down = graded_edges(depth, fine, fine_depth, growth, max_size)
-        z = -down[::-1]
-        if void > 0:
-            n_void = max(1, int(np.ceil(void / fine - 1e-9)))
-            z = np.concatenate([z, np.linspace(0.0, void, n_void + 1)[1:]])
+        z = graded_z(depth, void, fine, fine_depth, growth, max_size)
         grid = cls(x, y, z, symmetry=symmetry, radius=radius)
         if cylinder_mask:
             xc, yc = np.meshgrid(grid.xc, grid.yc, indexing="ij")

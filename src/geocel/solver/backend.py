@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from ..config.scenario import Scenario
     from ..io.rundir import RunDirectory
 
-__all__ = ["AxisymmetricBackend", "Backend", "CartesianBackend", "build_backend"]
+__all__ = ["AxisymmetricBackend", "Backend", "CartesianBackend", "NestedBackend", "build_backend"]
 
 #: arrays of the soil field saved in a checkpoint (both fields have them)
 STATE_ARRAYS = ("Vs", "Vcur", "mass", "stress", "state", "q", "hg", "v", "nmass", "modulus", "u_remap")
@@ -65,6 +65,26 @@ class Backend:
         self.geometry = _geometry(scenario)
 
     # --- the soil ------------------------------------------------------------------------------------------
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The soil field's arrays a checkpoint keeps, by name (the live arrays: restoring writes into them)."""
+        return {name: getattr(self.field, name) for name in STATE_ARRAYS}
+
+    def grid_shape(self) -> list:
+        """The grid's cells per direction (of every level, for nested columns)."""
+        return list(self.field.grid.shape)
+
+    def smallest_cell(self) -> float:
+        """Smallest cell edge among active cells, m."""
+        return float(self.field.grid.smallest_cell())
+
+    def max_speed(self) -> float:
+        """Largest nodal velocity component of the soil, m/s."""
+        return float(np.abs(self.field.v).max())
+
+    def rule_flags(self) -> np.ndarray:
+        """The soil model's flags of the last step (bits of :mod:`geocel.materials.flags`), every cell."""
+        return self.field.flags
+
     def soil_cells(self) -> int:
         """Cells of the soil domain (active cells in 3D)."""
         raise NotImplementedError
@@ -305,19 +325,96 @@ class CartesianBackend(Backend):
         soil = write_rectilinear(
             run_dir.field_path("soil", index), g.x, g.y, g.z, f.cell_fields(), point_data={"velocity": f.v}
         )
-        out = [(soil, 0)]
-        if self.pile is not None:
-            pts, hexes, cd, pd = self._pile_vtu()
-            out.append((write_unstructured_hex(run_dir.field_path("pile", index), pts, hexes, cd, pd), 1))
-            if self.pile.kind == "coupled":  # stress resultants along the beam (whole pile)
-                import pandas as pd
+        return [(soil, 0)] + (self._write_pile(run_dir, index) if self.pile is not None else [])
 
-                z, N = self.pile.axial_force()
-                M = self.pile.bending_moment()
-                table = pd.DataFrame(
-                    {"z_m": z, "axial_force_N": N, "moment_x_Nm": M[:, 0], "moment_y_Nm": M[:, 1]}
-                )
-                table.to_csv(run_dir.field_path("beam_forces", index).with_suffix(".csv"), index=False)
+    def _write_pile(self, run_dir: RunDirectory, index: int) -> list[tuple[Path, int]]:
+        """The pile's snapshot (part 1) and, for the coupled pile, its stress resultants along the beam."""
+        pts, hexes, cd, pd = self._pile_vtu()
+        out = [(write_unstructured_hex(run_dir.field_path("pile", index), pts, hexes, cd, pd), 1)]
+        if self.pile.kind == "coupled":  # stress resultants along the beam (whole pile)
+            import pandas as pd
+
+            z, N = self.pile.axial_force()
+            M = self.pile.bending_moment()
+            table = pd.DataFrame(
+                {"z_m": z, "axial_force_N": N, "moment_x_Nm": M[:, 0], "moment_y_Nm": M[:, 1]}
+            )
+            table.to_csv(run_dir.field_path("beam_forces", index).with_suffix(".csv"), index=False)
+        return out
+
+
+class NestedBackend(CartesianBackend):
+    """The 3D model on nested 2:1 columns (``[domain] layout = "nested"``,
+    :class:`~geocel.solver.composite.CompositeField`): levels of tensor-product columns, the pile and its
+    contact in the finest; checkpoints and snapshots per level (``soil_L<level>_NNNNN.vtr``)."""
+
+    def soil_cells(self) -> int:
+        return int(self.field.layout.n_active)
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        return {
+            f"level{L}_{name}": getattr(lvl, name)
+            for L, lvl in enumerate(self.field.levels)
+            for name in STATE_ARRAYS
+        }
+
+    def grid_shape(self) -> list:
+        return [list(lvl.grid.shape) for lvl in self.field.levels]
+
+    def smallest_cell(self) -> float:
+        return min(lvl.grid.smallest_cell() for lvl in self.field.levels)
+
+    def max_speed(self) -> float:
+        return max(float(np.abs(lvl.v).max()) for lvl in self.field.levels)
+
+    def rule_flags(self) -> np.ndarray:
+        return np.concatenate([lvl.flags.ravel() for lvl in self.field.levels])
+
+    def soil_density(self) -> float:
+        dens = [0.0]
+        for lvl in self.field.levels:
+            full = (lvl.Vs >= 0.5 * lvl.volume) & lvl.active3
+            if full.any():
+                dens.append(float((lvl.mass[full] / lvl.Vs[full]).max()))
+        return max(dens)
+
+    def cell_position(self, index: int) -> tuple[float, ...] | None:
+        L = self.field.governing_level
+        if index < 0 or L < 0:
+            return None
+        g = self.field.levels[L].grid
+        i, j, k = np.unravel_index(index, g.shape)
+        return float(g.xc[i]), float(g.yc[j]), float(g.zc[k])
+
+    def fastest_node(self) -> tuple[list[int], tuple[float, ...]]:
+        best = (-1.0, 0, (0, 0, 0))
+        for L, lvl in enumerate(self.field.levels):
+            speed = np.linalg.norm(np.nan_to_num(lvl.v), axis=-1)
+            idx = np.unravel_index(np.argmax(speed), speed.shape)
+            if speed[idx] > best[0]:
+                best = (float(speed[idx]), L, idx)
+        _, L, idx = best
+        g = self.field.levels[L].grid
+        return [L, *(int(i) for i in idx)], (float(g.x[idx[0]]), float(g.y[idx[1]]), float(g.z[idx[2]]))
+
+    def governing(self) -> tuple[float, dict, int]:
+        dt, gov, substeps = super().governing()
+        if isinstance(gov.get("element"), dict) and "cell" in gov["element"]:
+            gov["element"]["level"] = int(self.field.governing_level)
+        return dt, gov, substeps
+
+    def write_fields(self, run_dir: RunDirectory, index: int) -> list[tuple[Path, int]]:
+        out = []
+        for L, lvl in enumerate(self.field.levels):
+            g = lvl.grid
+            path = run_dir.field_path(f"soil_L{L}", index)
+            out.append(
+                (write_rectilinear(path, g.x, g.y, g.z, lvl.cell_fields(), point_data={"velocity": lvl.v}), L)
+            )
+        if self.pile is not None:
+            n = len(out)
+            for path, part in self._write_pile(run_dir, index):
+                out.append((path, n + part - 1))
         return out
 
 
@@ -544,4 +641,6 @@ def build_backend(scenario: Scenario) -> Backend:
     pile wished in place to its initial embedment and the contact."""
     if scenario.domain.symmetry == "axisymmetric":
         return AxisymmetricBackend(scenario)
+    if scenario.domain.layout == "nested":
+        return NestedBackend(scenario)
     return CartesianBackend(scenario)

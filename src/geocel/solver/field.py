@@ -74,7 +74,7 @@ class InstabilityError(RuntimeError):
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def _void_ratio_from_density(active, Vs, mass, state, grain_density, hx, hy, hz):
+def void_ratio_from_density(active, Vs, mass, state, grain_density, hx, hy, hz):
     """e = ρ_s V_s / m − 1 for every soil cell (e follows the conserved mass and soil volume)."""
     nx, ny, nz = Vs.shape
     for i in prange(nx):
@@ -116,7 +116,8 @@ def accumulate_displacement(rx, ry, rz, v, dt, u):
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def _kinetic_energy(nmass, v):
+def kinetic_energy(nmass, v):
+    """½ Σ m v² over the nodes."""
     nx, ny, nz = nmass.shape
     ke = np.empty(nx)
     for i in prange(nx):
@@ -187,6 +188,24 @@ class FieldBalances:
         self.initial_mass = 0.0
         #: accumulated wall time per phase of the step, s
         self.timers: dict[str, float] = dict.fromkeys(("nodes", "cells", "remap", "bookkeeping"), 0.0)
+
+    def book(self, dt: float, sums, dtc: float, arg: int) -> None:
+        """Energies, clock and the next Δt (bounded by the growth ratio) after a step."""
+        st = self.settings
+        ke, dEi, dEv, dEh, wg = sums
+        e = self.energy
+        e["kinetic"] = ke
+        e["internal"] += dEi
+        e["viscous"] += dEv
+        e["hourglass"] += dEh
+        e["gravity_work"] += wg
+        e["external_work"] += wg
+        self.time += dt
+        self.step_count += 1
+        self.dt_critical = dtc
+        self.governing_cell = arg
+        if np.isfinite(dtc):
+            self.dt = min(st.safety_factor * dtc, st.dt_growth * dt)
 
     def energy_balance_error(self) -> float:
         """KE + internal + dissipation − external work − (kinetic energy removed by the remap), J."""
@@ -346,13 +365,38 @@ class SoilField(FieldBalances):
         grid it started from, their node displacements accumulate, and one remap with the sum moves
         everything. The pile moves about 4e-4 of a demo cell per step, so the remap comes every ≈ 25 steps
         at 0.02; mass stays conserved exactly."""
-        st = self.settings
         dt = self.dt if dt is None else dt
         tm = self.timers
         t0 = time.perf_counter()
         if self.contact is not None:
             self.contact.before_nodes()
-        ke, dEi, dEv, dEh, wg = advance_nodes(
+        sums = self.nodal_pass(dt)
+        if self.contact is not None:
+            self.contact.apply(dt)
+        t1 = time.perf_counter()
+        dtc, arg = self.cell_pass(dt)
+        # a NaN anywhere reaches these sums (this step or the next): no extra pass over the arrays
+        if not (np.isfinite(sums[0]) and np.isfinite(sums[1])):
+            raise InstabilityError(*self._diagnose(dt))
+        t2 = time.perf_counter()
+        courant = self.pending_courant(dt)
+        if courant > 1.0 and self.settings.remap_courant < np.inf and self.runaway():
+            raise InstabilityError(*self._diagnose(dt, courant))
+        if self.remap_due(courant):
+            self._remap(dt, parity, self.u_remap)
+        t3 = time.perf_counter()
+        self.book(dt, sums, dtc, arg)
+        t4 = time.perf_counter()
+        tm["nodes"] += t1 - t0
+        tm["cells"] += t2 - t1
+        tm["remap"] += t3 - t2
+        tm["bookkeeping"] += t4 - t3
+
+    # --- the phases of the step (a composite of levels calls them level by level) -------------------------------
+    def nodal_pass(self, dt: float) -> tuple[float, float, float, float, float]:
+        """v ← v + Δt f/m at every node (:func:`advance_nodes`); returns its energy sums (kinetic, stress
+        work, viscous, hourglass, gravity work)."""
+        return advance_nodes(
             self.hx,
             self.hy,
             self.hz,
@@ -370,16 +414,18 @@ class SoilField(FieldBalances):
             self.mass_tiny,
             self._force_factors,
         )
-        if self.contact is not None:
-            self.contact.apply(dt)
-        t1 = time.perf_counter()
+
+    def cell_pass(self, dt: float) -> tuple[float, int]:
+        """Strain rates, soil model, bulk viscosity and hourglass control of every cell
+        (:func:`update_cells`); returns (critical Δt, the governing cell's flat index)."""
+        st = self.settings
         nonlocal_ = self._nonlocal_weights is not None
         if nonlocal_:
             nonlocal_factor(
                 self.v, self.hx, self.hy, self.hz, self.active2d, self.Vs, self._nonlocal_weights,
                 self._nonlocal_scratch[0], self._nonlocal_scratch[1:], self.nonlocal_factor,
             )  # fmt: skip
-        dtc, arg = update_cells(
+        return update_cells(
             self.model_tag,
             self.prm,
             self.hx,
@@ -406,43 +452,28 @@ class SoilField(FieldBalances):
             self.nonlocal_factor,
             nonlocal_,
         )
-        # a NaN anywhere reaches these sums (this step or the next): no extra pass over the arrays
-        if not (np.isfinite(ke) and np.isfinite(dEi)):
-            raise InstabilityError(*self._diagnose(dt))
-        t2 = time.perf_counter()
-        deferred = st.remap_courant > 0.0
-        if not deferred:
+
+    def pending_courant(self, dt: float) -> float:
+        """Add this step's node displacements to those pending for the remap (reset first when the remap
+        comes every step); returns the Courant number of the pending remap."""
+        if self.settings.remap_courant <= 0.0:
             self.u_remap[...] = 0.0
-        courant = accumulate_displacement(*self._node_reciprocal, self.v, dt, self.u_remap)
-        finite = st.remap_courant < np.inf
-        if courant > 1.0 and finite and runaway_nodes(self.u_remap, self._node_reciprocal, self.nmass).any():
-            raise InstabilityError(*self._diagnose(dt, courant))
-        if not deferred or courant >= st.remap_courant:
-            self._remap(dt, parity, self.u_remap)
-        t3 = time.perf_counter()
-        e = self.energy
-        e["kinetic"] = ke
-        e["internal"] += dEi
-        e["viscous"] += dEv
-        e["hourglass"] += dEh
-        e["gravity_work"] += wg
-        e["external_work"] += wg
-        self.time += dt
-        self.step_count += 1
-        self.dt_critical = dtc
-        self.governing_cell = arg
-        if np.isfinite(dtc):
-            self.dt = min(st.safety_factor * dtc, st.dt_growth * dt)
-        t4 = time.perf_counter()
-        tm["nodes"] += t1 - t0
-        tm["cells"] += t2 - t1
-        tm["remap"] += t3 - t2
-        tm["bookkeeping"] += t4 - t3
+        return accumulate_displacement(*self._node_reciprocal, self.v, dt, self.u_remap)
+
+    def runaway(self) -> bool:
+        """Whether a node with soil moved more than a cell since the last remap (:func:`runaway_nodes`)."""
+        return bool(runaway_nodes(self.u_remap, self._node_reciprocal, self.nmass).any())
+
+    def remap_due(self, courant: float) -> bool:
+        """Whether the remap comes now: after every step, or once the pending Courant number reaches
+        ``remap_courant``."""
+        rc = self.settings.remap_courant
+        return rc <= 0.0 or courant >= rc
 
     def _remap(self, dt: float, parity: int | None, displacement: np.ndarray) -> None:
         """Remap back to the fixed grid with the mesh motion ``displacement`` accumulated since the last
         remap (then reset); the sweep order alternates from one remap to the next."""
-        ke_before = _kinetic_energy(self.nmass, self.v)
+        ke_before = kinetic_energy(self.nmass, self.v)
         lost, capped = remap(
             self.hx,
             self.hy,
@@ -467,10 +498,10 @@ class SoilField(FieldBalances):
         displacement[...] = 0.0
         if self.contact is not None:
             self.contact.after_remap()
-        _void_ratio_from_density(
+        void_ratio_from_density(
             self.active2d, self.Vs, self.mass, self.state, self.grain_density, self.hx, self.hy, self.hz
         )
-        self.energy["remap_kinetic_loss"] += ke_before - _kinetic_energy(self.nmass, self.v)
+        self.energy["remap_kinetic_loss"] += ke_before - kinetic_energy(self.nmass, self.v)
         self.lost_mass += lost
         self.capped_volume += capped
         self.remap_count += 1

@@ -35,11 +35,13 @@ from ..bodies.pile import PileBody, build_pile, head_displacement, head_velocity
 from ..config.fingerprint import check_same_scenario, resolved_dict, scenario_fingerprint
 from ..config.scenario import Scenario, ScenarioError, load_scenario
 from ..contact.coupling import ContactCoupling
-from ..grid import Grid
+from ..grid import Grid, graded_z
+from ..grid.nested import NestedColumns
 from ..io.checkpoint import CheckpointError, load_latest_checkpoint, save_checkpoint
 from ..io.rundir import RunDirectory
 from ..materials import flags as fl
-from .backend import STATE_ARRAYS, Backend, build_backend
+from .backend import Backend, build_backend
+from .composite import CompositeField
 from .field import InstabilityError, SoilField, SolverSettings
 from .output import AnyOf, Callback, PenetrationInterval, Schedule, TimeInterval
 from .quasi_static import inertia_verdict as _inertia_verdict
@@ -57,10 +59,6 @@ from .writers import (  # noqa: F401  (HISTORY_*, history_preamble: re-exported,
 #: version of the checkpoint metadata (2: with the scenario, status, phase times and governing element; 3: with
 #: the state of every callback, ``callbacks``, and the step they last ran for, ``outputs_step``)
 CHECKPOINT_FORMAT = 3
-
-
-#: arrays of the soil field saved in a checkpoint
-_STATE_ARRAYS = STATE_ARRAYS
 
 
 def build_grid(scenario: Scenario) -> Grid:
@@ -92,21 +90,53 @@ def solver_settings(scenario: Scenario, **override) -> SolverSettings:
     return SolverSettings(**({k: getattr(s, k) for k in keys} | override))
 
 
-def build_field(scenario: Scenario, grid: Grid | None = None) -> SoilField:
-    """3D soil field with the geostatic initial state of the scenario (MGS applied here, once)."""
-    grid = build_grid(scenario) if grid is None else grid
+def build_layout(scenario: Scenario) -> NestedColumns:
+    """The nested 2:1 columns of a scenario (``[domain] layout = "nested"``): level 0 of ``fine_size`` cells to
+    ``fine_radius`` (rounded up to whole cells of level 1), ``buffer`` cells of each coarser level around the
+    finer, on the graded z edges of the tensor-product grid."""
+    d = scenario.domain
+    z = graded_z(d.soil_depth, d.void_height, d.fine_size, d.fine_depth, d.growth, d.max_size)
+    return NestedColumns.around_axis(
+        d.radius, z, d.fine_size, d.fine_radius, buffer=d.buffer, max_size=d.max_size, symmetry=d.symmetry,
+        cylinder_mask=d.cylinder_mask,
+    )  # fmt: skip
+
+
+def build_field(scenario: Scenario, grid: Grid | None = None) -> SoilField | CompositeField:
+    """3D soil field with the geostatic initial state of the scenario (MGS applied here, once): on the
+    tensor-product ``grid`` (default: the scenario's), or on nested columns (``[domain] layout = "nested"``,
+    the pile and its contact in the finest level)."""
     mat = scenario.soil.material
-    field = SoilField(grid, mat, scaling=scenario.scaling.mass_gravity, settings=solver_settings(scenario))
+    args = (mat, scenario.scaling.mass_gravity, solver_settings(scenario))
+    if grid is None and scenario.domain.layout == "nested":
+        field = CompositeField(build_layout(scenario), *args)
+        soil = field.levels[0]
+    else:
+        field = soil = SoilField(build_grid(scenario) if grid is None else grid, *args)
     field.fill_below(0.0)
     if scenario.pile is not None:
         pile = build_pile_body(scenario)
+        if soil is not field:
+            _check_inside_fine_level(field, pile.geometry.diameter / 2)
         field.contact = ContactCoupling(
-            field, pile, scenario.contact.friction_coefficient(mat), scenario.contact.formulation
+            soil, pile, scenario.contact.friction_coefficient(mat), scenario.contact.formulation
         )
         field.contact.remove_soil_inside()  # a pile wished in place to its initial embedment
     layers = [(layer.top, scenario.soil.void_ratio_of(layer, mat)) for layer in scenario.soil.layers]
     field.geostatic(layers, k0=scenario.initial.k0, intergranular=scenario.initial.intergranular_strain)
     return field
+
+
+def _check_inside_fine_level(field: CompositeField, radius: float) -> None:
+    """The pile and its contact band must stay inside the finest level: its radius plus four cells."""
+    h = field.layout.sizes[0]
+    X = min(field.layout.extents[0])
+    if len(field.levels) > 1 and radius + 4 * h > X:
+        raise ValueError(
+            f"[domain] fine_radius: the finest level of the nested columns reaches {X:g} m from the axis; the "
+            f"pile (radius {radius:g} m) and its contact need {radius + 4 * h:g} m (the pile's radius and four "
+            f"cells of {h:g} m)"
+        )
 
 
 def build_pile_body(scenario: Scenario, symmetry: str | None = None) -> PileBody:
@@ -343,18 +373,18 @@ class Simulation:
 
     # --- state ---------------------------------------------------------------------------------------------
     def _snapshot(self) -> dict[str, np.ndarray]:
-        f = self.field
-        out = {name: getattr(f, name).copy() for name in _STATE_ARRAYS}
+        out = {name: a.copy() for name, a in self.backend.state_arrays().items()}
         if self.pile is not None:
             out.update({f"pile_{k}": v for k, v in self.backend.pile_arrays().items()})
             out["force_sums"] = self._sums.copy()
         return out
 
     def _restore(self, arrays: dict[str, np.ndarray]) -> None:
-        f = self.field
-        for name in _STATE_ARRAYS:
-            if name in arrays or name != "u_remap":  # (checkpoints before deferred remaps: none pending)
-                getattr(f, name)[...] = arrays[name]
+        for name, a in self.backend.state_arrays().items():
+            if name in arrays or not name.endswith(
+                "u_remap"
+            ):  # (checkpoints before deferred remaps: none pending)
+                a[...] = arrays[name]
         if self.pile is not None:
             self.backend.restore_pile_arrays({k[5:]: v for k, v in arrays.items() if k.startswith("pile_")})
             self._sums[...] = arrays["force_sums"]
@@ -477,8 +507,8 @@ class Simulation:
             "status": self.status,
             "symmetry": self.backend.symmetry,
             "soil_cells": self.backend.soil_cells(),
-            "grid_shape": list(f.grid.shape),
-            "smallest_cell": f.grid.smallest_cell(),
+            "grid_shape": self.backend.grid_shape(),
+            "smallest_cell": self.backend.smallest_cell(),
             "steps": f.step_count,
             "remaps": f.remap_count,  # fewer than steps when the remap is deferred ([solver] remap_courant)
             "time": f.time,
@@ -735,11 +765,11 @@ class Simulation:
         return arrays, meta
 
     def _check_shapes(self, arrays: dict[str, np.ndarray]) -> None:
-        for name in _STATE_ARRAYS:
-            if name in arrays and arrays[name].shape != getattr(self.field, name).shape:
+        for name, a in self.backend.state_arrays().items():
+            if name in arrays and arrays[name].shape != a.shape:
                 raise CheckpointError(
                     f"checkpoint in {self.run_dir.root}: array {name} has shape {arrays[name].shape}, the "
-                    f"scenario's grid needs {getattr(self.field, name).shape}"
+                    f"scenario's grid needs {a.shape}"
                 )
 
     def _already_finished(self) -> dict:
@@ -793,7 +823,7 @@ class Simulation:
             self.diagnostic["last_complete_penetration"] = self.head_displacement()
 
     def _count_rules(self) -> None:
-        flags = self.field.flags
+        flags = self.backend.rule_flags()
         fired = int(np.bitwise_or.reduce(flags, axis=None))  # one pass; most steps fire no rule at all
         for bit, name in fl.NAMES.items():
             if fired & bit:

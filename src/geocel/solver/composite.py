@@ -1,0 +1,255 @@
+"""The soil field on nested 2:1 columns (:mod:`geocel.grid.nested`): one :class:`SoilField` per level, one
+time step for all, the levels' nodal passes joined at the interfaces by :func:`geocel.euler.hanging.couple_nodes`.
+
+Each level runs the tensor-product kernels unchanged (its covered columns masked); the composite adds, per
+interface and step, a pass over the interface nodes only, and in the remap, after each x or y sweep of the
+cells, the fluxes through the interface's faces (:func:`geocel.euler.hanging.exchange_fluxes`; a z sweep
+never crosses an interface) and after each node sweep the interface nodes' momentum
+(:func:`geocel.euler.hanging.merge_momentum`)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..euler.hanging import couple_nodes, exchange_fluxes, merge_momentum
+from ..euler.remap import remap_sweeps
+from ..grid.nested import NestedColumns
+from .field import (
+    E_MAX,
+    E_MIN,
+    FieldBalances,
+    InstabilityError,
+    Material,
+    SoilField,
+    SolverSettings,
+    kinetic_energy,
+    void_ratio_from_density,
+)
+
+
+class CompositeField(FieldBalances):
+    """Soil on the levels of ``layout``, with one material, MGS factor ``scaling`` and ``settings``.
+
+    ``levels[L]`` is the :class:`SoilField` of level L (its arrays are the level's grid's); the energies,
+    mass accounts, clock and Δt are the composite's."""
+
+    def __init__(
+        self,
+        layout: NestedColumns,
+        material: Material,
+        scaling: float = 1.0,
+        settings: SolverSettings | None = None,
+    ) -> None:
+        self.layout = layout
+        self.material = material
+        self.scaling = scaling
+        self.settings = SolverSettings() if settings is None else settings
+        self._init_material()
+        self._init_bookkeeping()
+        self.levels = [SoilField(g, material, scaling, self.settings) for g in layout.grids]
+        # the contact (in level 0) books its energy corrections in its field's energies: the composite's
+        self.levels[0].energy = self.energy
+        for lvl, fix in zip(self.levels, layout.constraints, strict=True):
+            lvl.fix = np.ascontiguousarray(fix)  # the covered region's boundary is not a wall
+        if self.nonlocal_length > 0 and len(self.levels) > 1:
+            raise NotImplementedError(
+                "the non-local soil model's mean across nested-column interfaces is not built"
+            )
+        self.contact = None
+        self.governing_level = -1
+
+    # --- initial state --------------------------------------------------------------------------------------
+    def fill_below(self, surface: float = 0.0) -> None:
+        for lvl in self.levels:
+            lvl.fill_below(surface)
+
+    def geostatic(
+        self, layers: list[tuple[float, float]], k0: float, intergranular: str = "vertical"
+    ) -> None:
+        """The geostatic state of :meth:`SoilField.geostatic` on every level (each column is in equilibrium by
+        itself, so the interfaces are too); the empty-node threshold of the finest level for all."""
+        for lvl in self.levels:
+            lvl.geostatic(layers, k0, intergranular)
+        tiny = min(lvl.mass_tiny for lvl in self.levels)
+        for lvl in self.levels:
+            lvl.mass_tiny = tiny
+        self.mass_tiny = tiny
+        self.initial_mass = self.soil_mass()
+        self.dt = self.settings.safety_factor * self.stable_time_step()
+
+    def stable_time_step(self) -> float:
+        steps = [lvl.stable_time_step() for lvl in self.levels]
+        self.governing_level = int(np.argmin(steps))
+        self.dt_critical = float(min(steps))
+        return self.dt_critical
+
+    # --- the explicit step --------------------------------------------------------------------------------------
+    def step(self, dt: float | None = None, parity: int | None = None) -> None:
+        """One explicit step of every level with the same Δt (the smallest level's stable step)."""
+        dt = self.dt if dt is None else dt
+        tm = self.timers
+        t0 = time.perf_counter()
+        if self.contact is not None:
+            self.contact.before_nodes()
+        sums = np.array(self._nodal_pass(dt))
+        if self.contact is not None:
+            self.contact.apply(dt)
+        t1 = time.perf_counter()
+        dtc, arg, level = np.inf, -1, -1
+        for L, lvl in enumerate(self.levels):
+            d, a = lvl.cell_pass(dt)
+            if d < dtc:
+                dtc, arg, level = d, a, L
+        if not (np.isfinite(sums[0]) and np.isfinite(sums[1])):
+            raise InstabilityError(*self._diagnose(dt))
+        t2 = time.perf_counter()
+        courant = max(lvl.pending_courant(dt) for lvl in self.levels)
+        runaway = courant > 1.0 and self.settings.remap_courant < np.inf
+        if runaway and any(lvl.runaway() for lvl in self.levels):
+            raise InstabilityError(*self._diagnose(dt, courant))
+        if self.levels[0].remap_due(courant):
+            self._remap(parity)
+        t3 = time.perf_counter()
+        self.book(dt, sums, dtc, arg)
+        self.governing_level = level
+        for lvl in self.levels:
+            lvl.time, lvl.step_count = self.time, self.step_count
+        tm["nodes"] += t1 - t0
+        tm["cells"] += t2 - t1
+        tm["remap"] += t3 - t2
+        tm["bookkeeping"] += time.perf_counter() - t3
+
+    def _nodal_pass(self, dt: float) -> np.ndarray:
+        """Every level's nodal pass with its interface nodes detached (mass 0: left alone), then the
+        interfaces' coupled update; returns the energy sums."""
+        itfs = self.layout.interfaces
+        held = []
+        for itf in itfs:
+            c, f = self.levels[itf.coarse], self.levels[itf.fine]
+            I, J = itf.coarse_nodes[:, 0], itf.coarse_nodes[:, 1]
+            i, j = itf.fine_nodes[:, 0], itf.fine_nodes[:, 1]
+            held.append((c.v[I, J].copy(), c.nmass[I, J].copy(), f.nmass[i, j].copy()))
+            c.nmass[I, J] = 0.0
+            f.nmass[i, j] = 0.0
+        sums = np.zeros(5)
+        try:
+            for lvl in self.levels:
+                sums += lvl.nodal_pass(dt)
+        finally:
+            for itf, (_, mc, mf) in zip(itfs, held, strict=True):
+                self.levels[itf.coarse].nmass[itf.coarse_nodes[:, 0], itf.coarse_nodes[:, 1]] = mc
+                self.levels[itf.fine].nmass[itf.fine_nodes[:, 0], itf.fine_nodes[:, 1]] = mf
+        for itf, (v_old, mc, mf) in zip(itfs, held, strict=True):
+            c, f = self.levels[itf.coarse], self.levels[itf.fine]
+            sums += couple_nodes(
+                itf.coarse_nodes, itf.fine_nodes, itf.parent, itf.weight,
+                c.active2d, c._force_factors, c.v, c.fix, mc,
+                f.active2d, f._force_factors, f.v, mf,
+                v_old, self.gravity, dt, self.mass_tiny,
+            )  # fmt: skip
+        return sums
+
+    def _diagnose(self, dt: float, courant: float | None = None) -> tuple[str, dict]:
+        """The diagnosis of :meth:`SoilField._diagnose` in the first level with a non-finite array (else in
+        the level of the fastest node), with the level's number."""
+        bad = [
+            L for L, lvl in enumerate(self.levels)
+            if not all(np.isfinite(a).all() for a in (lvl.stress, lvl.mass, lvl.Vs, lvl.q, lvl.v, lvl.nmass))
+        ]  # fmt: skip
+        L = bad[0] if bad else int(np.argmax([np.abs(np.nan_to_num(lvl.v)).max() for lvl in self.levels]))
+        lvl = self.levels[L]
+        lvl.step_count, lvl.time = self.step_count, self.time
+        msg, diag = lvl._diagnose(dt, courant)
+        diag["level"] = L
+        return f"{msg} (nested level {L}, cells of {self.layout.sizes[L]:g} m)", diag
+
+    def _remap(self, parity: int | None) -> None:
+        """Every level's remap (:func:`geocel.euler.remap.remap_sweeps`, the pending node displacements as the
+        mesh motion) in lockstep, the interfaces joined after each sweep; then the void ratios from the
+        densities and the kinetic energy the remap removed."""
+        ke_before = self.kinetic_energy()
+        order = self.remap_count if parity is None else parity
+        rho_lo = self.grain_density / (1.0 + E_MAX)
+        rho_hi = self.grain_density / (1.0 + E_MIN)
+        sweeps = [
+            remap_sweeps(
+                lvl.hx,
+                lvl.hy,
+                lvl.hz,
+                lvl.active2d,
+                lvl.active3,
+                lvl.v,
+                1.0,
+                lvl.Vs,
+                lvl.Vcur,
+                lvl.mass,
+                lvl.stress,
+                lvl.state[..., 1:],
+                lvl.nmass,
+                lvl.fbar,
+                order,
+                self.mass_tiny,
+                rho_lo,
+                rho_hi,
+                lvl.u_remap,
+            )  # fmt: skip
+            for lvl in self.levels
+        ]
+        lost = capped = 0.0
+        while True:
+            said, done = [], None
+            for sw in sweeps:
+                try:
+                    said.append(next(sw))
+                except StopIteration as end:
+                    done = (done or []) + [end.value]
+            if done is not None:
+                lost += sum(d[0] for d in done)
+                capped += sum(d[1] for d in done)
+                break
+            phase, axis = said[0][0], said[0][1]
+            for itf in self.layout.interfaces:
+                c, f = self.levels[itf.coarse], self.levels[itf.fine]
+                if phase == "cells" and axis < 2 and len(itf.faces[axis]):
+                    _, _, v_mesh, dt_mesh = said[itf.fine]
+                    capped += exchange_fluxes(
+                        itf.faces[axis], axis, v_mesh, dt_mesh, f.hz, self.layout.sizes[itf.fine],
+                        c.Vs, c.Vcur, c.mass, c.stress, c.state[..., 1:], c.fbar,
+                        f.Vs, f.Vcur, f.mass, f.stress, f.state[..., 1:], f.fbar,
+                        rho_lo, rho_hi,
+                    )  # fmt: skip
+                elif phase == "nodes":
+                    merge_momentum(
+                        itf.coarse_nodes, itf.fine_nodes, itf.parent, itf.weight,
+                        c.active2d, c.mass, said[itf.coarse][2], c.v,
+                        f.active2d, f.mass, said[itf.fine][2], f.v, self.mass_tiny,
+                    )  # fmt: skip
+        for lvl in self.levels:
+            lvl.u_remap[...] = 0.0
+            void_ratio_from_density(
+                lvl.active2d, lvl.Vs, lvl.mass, lvl.state, self.grain_density, lvl.hx, lvl.hy, lvl.hz
+            )
+        if self.contact is not None:
+            self.contact.after_remap()
+        self.energy["remap_kinetic_loss"] += ke_before - self.kinetic_energy()
+        self.lost_mass += lost
+        self.capped_volume += capped
+        self.remap_count += 1
+
+    # --- diagnostics ----------------------------------------------------------------------------------------
+    def soil_mass(self) -> float:
+        return sum(lvl.soil_mass() for lvl in self.levels)
+
+    def kinetic_energy(self) -> float:
+        """½ Σ m v² over the composite's nodes at the current velocities: every level's nodes, with each
+        interface counted once, at its coarse node, with the slaves' masses handed to it."""
+        ke = sum(kinetic_energy(lvl.nmass, lvl.v) for lvl in self.levels)
+        for itf in self.layout.interfaces:
+            c, f = self.levels[itf.coarse], self.levels[itf.fine]
+            mf = f.nmass[itf.fine_nodes[:, 0], itf.fine_nodes[:, 1]]
+            vf2 = np.sum(f.v[itf.fine_nodes[:, 0], itf.fine_nodes[:, 1]] ** 2, axis=-1)
+            vc2 = np.sum(c.v[itf.coarse_nodes[:, 0], itf.coarse_nodes[:, 1]] ** 2, axis=-1)
+            ke += 0.5 * float(np.sum(mf * (np.einsum("ns,snk->nk", itf.weight, vc2[itf.parent.T]) - vf2)))
+        return ke
