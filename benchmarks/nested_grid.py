@@ -1,12 +1,13 @@
 """Time per step of nested 2:1 columns against the tensor-product grid at the same fine size (issue 18).
 
     python benchmarks/nested_grid.py [--fine-size 0.1] [--fine-radius 1.2] [--fine-depth 10] [--buffer 4]
-        [--steps 10] [--rounds 3]
+        [--steps 10] [--rounds 3] [--remap-courant 0]
 
 Both grids hold the centrifuge container's quarter model (r = 21.25 m, 28 m of soil, 1 m of void; the
 ``paper`` preset's grading 1.15 and 3 m cap in z and, for the tensor product, in plan) of hypoplastic sand
 (Fraction E, e0 = 0.62, K0 = 0.5) under a small loading (a downward velocity that decays with depth and with
-the distance from the axis), with the remap after every step as in ``solver_throughput.py``. The two are
+the distance from the axis), with the remap after every step as in ``solver_throughput.py`` (or, with
+``--remap-courant inf``, the Lagrangian phase alone: most steps of a run, whose remap is deferred). The two are
 timed in alternating rounds (the machine's speed drifts), after a first step that compiles. Prints the cells,
 the seconds per step, cell-steps per second and the ratio of the step times; last line
 ``nested_step_ratio=<nested step time / tensor-product step time>``.
@@ -40,7 +41,7 @@ def load(levels) -> None:
 
 
 def build(a: argparse.Namespace) -> tuple[SoilField, CompositeField]:
-    st = SolverSettings(remap_courant=0.0)
+    st = SolverSettings(remap_courant=a.remap_courant)
     mat = Hypoplastic.fraction_e()
     tp = SoilField(
         Grid.graded(RADIUS, DEPTH, VOID, a.fine_size, a.fine_radius, a.fine_depth, GROWTH, max_size=CAP),
@@ -69,6 +70,11 @@ def main() -> None:
     ap.add_argument("--buffer", type=int, default=4)
     ap.add_argument("--steps", type=int, default=10)
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument(
+        "--remap-courant", type=float, default=0.0,
+        help="0: remap after every step (as solver_throughput.py); inf: never (the Lagrangian phase alone, as "
+        "the steps between a run's deferred remaps)",
+    )  # fmt: skip
     a = ap.parse_args()
     if a.steps < 1 or a.rounds < 1 or a.buffer < 1:
         ap.error("--steps, --rounds and --buffer must be ≥ 1")
