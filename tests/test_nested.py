@@ -215,7 +215,6 @@ def test_p_wave_crosses_a_2to1_interface_as_on_a_uniform_grid():
         reflected = 0.5 * float((m * (left.v[near] ** 2).sum(-1)).sum())
         total[name] += (reflected,)
     e_start = 2 * total["uniform"][0]  # the pulse's energy: half kinetic, half strain (right-going)
-    print(total, peaks)
     assert total["nested"][1] == pytest.approx(total["uniform"][1], rel=0.02)
     assert peaks["nested"] == pytest.approx(peaks["uniform"], rel=0.02)
     assert total["nested"][2] < 0.01 * e_start
@@ -370,3 +369,13 @@ def test_an_instability_names_its_level():
         for _ in range(3):
             f.step()
     assert err.value.diagnostic["level"] == 1 and err.value.diagnostic["quantity"] == "stress"
+
+
+def test_a_scenario_refuses_a_finest_level_too_small_for_the_pile():
+    from _cases import tiny_pile
+    from geocel.config.scenario import scenario_from_dict
+
+    d = tiny_pile("too-small")
+    d["domain"].update(layout="nested", fine_radius=0.3)
+    with pytest.raises(ValueError, match=r"\[domain\].fine_radius = 0.3: nested layout: must be ≥ 0.5 m"):
+        scenario_from_dict(d)

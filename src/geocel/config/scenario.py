@@ -575,6 +575,10 @@ class Scenario(_Table):
             self._check_void_ratios()
         if self.domain.frame == "pile" and self.pile is None:
             raise _invalid(("domain", "frame"), "pile", "the pile's frame needs a [pile]")
+        if self.domain.layout == "nested" and getattr(self.soil.material, "nonlocal_length", 0.0) > 0.0:
+            raise _invalid(
+                ("domain", "layout"), "nested", "not yet with the non-local sand ([soil] nonlocal_length > 0)"
+            )
         if self.pile is not None:
             self._check_pile_geometry()
             if self.domain.symmetry == "axisymmetric":
@@ -632,6 +636,14 @@ class Scenario(_Table):
                 ("domain", "fine_radius"),
                 dom.fine_radius,
                 f"must be ≥ the pile radius {pile.diameter / 2.0:g} m (the fine zone must hold the pile)",
+            )
+        need = pile.diameter / 2.0 + 4 * dom.fine_size
+        if dom.layout == "nested" and dom.fine_radius < need - 1e-9:
+            raise _invalid(
+                ("domain", "fine_radius"),
+                dom.fine_radius,
+                f"nested layout: must be ≥ {need:g} m, the pile radius and four cells of fine_size (the finest "
+                "level must hold the pile and its contact)",
             )
         height = dom.soil_depth + dom.void_height
         if pile.length > height:

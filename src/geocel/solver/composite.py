@@ -54,9 +54,7 @@ class CompositeField(FieldBalances):
         for lvl, fix in zip(self.levels, layout.constraints, strict=True):
             lvl.fix = np.ascontiguousarray(fix)  # the covered region's boundary is not a wall
         if self.nonlocal_length > 0 and len(self.levels) > 1:
-            raise NotImplementedError(
-                "the non-local soil model's mean across nested-column interfaces is not built"
-            )
+            raise ValueError("the non-local soil model's mean across nested-column interfaces is not built")
         self.contact = None
         self.governing_level = -1
 
