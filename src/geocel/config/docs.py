@@ -139,7 +139,7 @@ Besides the range of each key, a scenario must satisfy:
 
 * `[domain]`: `fine_size` < `radius` and < `soil_depth`; `fine_depth` ≤ `soil_depth`; `fine_radius` ≤
   `radius`; `max_size` ≥ `fine_size`.
-* `[domain] layout = "nested"`: a 3D symmetry (not axisymmetric), not with `[soil] nonlocal_length` > 0, and
+* `[domain] layout = "nested"`: a 3D symmetry (not axisymmetric), and
   with a pile `fine_radius` ≥ the pile radius + 4 `fine_size` (the finest level holds the pile and its contact).
 * `[[soil.layers]]`: the first `top` is 0, tops increase strictly and lie above the base (`soil_depth`);
   each layer gives exactly one of `e0` and `relative_density` (the latter only for a hypoplastic soil:

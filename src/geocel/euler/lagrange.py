@@ -548,13 +548,13 @@ def nonlocal_factor(v, hx, hy, hz, active, Vs, weights, nd, scratch, out) -> Non
     soil is at rest; :mod:`geocel.euler.nonlocal_mean`). ``nd`` ends holding ‖D‖ (1/s); ``scratch``: five
     arrays of the cells' shape."""
     Vw = scratch[0]
-    _stretching_norms(v, hx, hy, hz, active, Vs, nd, Vw)
+    stretching_norms(v, hx, hy, hz, active, Vs, nd, Vw)
     nonlocal_mean(Vw, nd, weights, scratch[1:], out)
     factor_from_mean(nd, out)
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def _stretching_norms(v, hx, hy, hz, active, Vs, nd, Vw):
+def stretching_norms(v, hx, hy, hz, active, Vs, nd, Vw):
     """‖D‖ (1/s) and the soil volume of every cell (0 for void cells and inactive columns)."""
     nx, ny, nz = Vs.shape
     for i in prange(nx):

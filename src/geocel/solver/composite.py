@@ -14,6 +14,7 @@ import time
 import numpy as np
 
 from ..euler.hanging import couple_nodes, exchange_fluxes, merge_momentum
+from ..euler.nested_mean import CrossLevelMean
 from ..euler.remap import remap_sweeps
 from ..grid.nested import NestedColumns
 from .field import (
@@ -53,8 +54,13 @@ class CompositeField(FieldBalances):
         self.levels[0].energy = self.energy
         for lvl, fix in zip(self.levels, layout.constraints, strict=True):
             lvl.fix = np.ascontiguousarray(fix)  # the covered region's boundary is not a wall
-        if self.nonlocal_length > 0 and len(self.levels) > 1:
-            raise ValueError("the non-local soil model's mean across nested-column interfaces is not built")
+        #: the non-local mean across the levels (None for a local soil model)
+        self.cross_mean = CrossLevelMean(layout, self.nonlocal_length) if self.nonlocal_length > 0 else None
+        if self.cross_mean is not None and not self.cross_mean.active:
+            self.cross_mean = None
+        if self.cross_mean is not None:
+            for lvl in self.levels:  # their own means (one box each) are not used
+                lvl._nonlocal_weights, lvl._nonlocal_scratch = None, ()
         self.contact = None
         self.governing_level = -1
 
@@ -96,8 +102,11 @@ class CompositeField(FieldBalances):
             self.contact.apply(dt)
         t1 = time.perf_counter()
         dtc, arg, level = np.inf, -1, -1
+        if self.cross_mean is not None:
+            self.cross_mean.factors(self.levels)
         for L, lvl in enumerate(self.levels):
-            d, a = lvl.cell_pass(dt)
+            given = None if self.cross_mean is None else self.cross_mean.nonlocal_level(L)
+            d, a = lvl.cell_pass(dt, given)
             if d < dtc:
                 dtc, arg, level = d, a, L
         if not (np.isfinite(sums[0]) and np.isfinite(sums[1])):

@@ -415,12 +415,14 @@ class SoilField(FieldBalances):
             self._force_factors,
         )
 
-    def cell_pass(self, dt: float) -> tuple[float, int]:
+    def cell_pass(self, dt: float, nonlocal_given: bool | None = None) -> tuple[float, int]:
         """Strain rates, soil model, bulk viscosity and hourglass control of every cell
-        (:func:`update_cells`); returns (critical Δt, the governing cell's flat index)."""
+        (:func:`update_cells`); returns (critical Δt, the governing cell's flat index). ``nonlocal_given``:
+        whether ``nonlocal_factor`` was set by the caller for this step (True) or the local model is to be used
+        (False); None: the field computes its own mean if its model has a length."""
         st = self.settings
-        nonlocal_ = self._nonlocal_weights is not None
-        if nonlocal_:
+        nonlocal_ = self._nonlocal_weights is not None if nonlocal_given is None else nonlocal_given
+        if nonlocal_ and nonlocal_given is None:
             nonlocal_factor(
                 self.v, self.hx, self.hy, self.hz, self.active2d, self.Vs, self._nonlocal_weights,
                 self._nonlocal_scratch[0], self._nonlocal_scratch[1:], self.nonlocal_factor,
