@@ -187,6 +187,24 @@ def test_ctrl_c_finishes_the_step_and_the_restart_reproduces_the_uninterrupted_h
     assert second["wall_time"] >= first["wall_time"]
 
 
+def test_sigterm_stops_like_ctrl_c_with_a_checkpoint(reference, tmp_path):
+    """What a batch scheduler sends at its time limit (and ``kill``): the step finishes, a checkpoint is
+    written, the handler is given back, and the restart reproduces the uninterrupted history."""
+    root = tmp_path / "run"
+
+    def terminate(sim):
+        if sim.field.step_count == 120:
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    handler = signal.getsignal(signal.SIGTERM)
+    first = _sim(root).run(callback=terminate)
+    assert first["status"] == "interrupted" and first["steps"] == 120
+    assert signal.getsignal(signal.SIGTERM) is handler
+    assert ckpt.load_checkpoint(root / "checkpoint.npz")[1]["step"] == 120
+    _sim(root).run(restart=True)
+    pd.testing.assert_frame_equal(_history(root), _history(reference[0]), rtol=1e-12, atol=0.0)
+
+
 def test_a_hard_stop_mid_step_keeps_the_last_complete_state(reference, tmp_path):
     """A second Ctrl-C (KeyboardInterrupt inside a step that has already changed the state): the checkpoint
     holds the last complete state, never half a step, and the restart still reproduces the history."""

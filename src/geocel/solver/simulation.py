@@ -8,7 +8,8 @@ writes the last complete state as a final snapshot and checkpoint.
 
 Restarts (DESIGN.md §1, "a killed run leaves everything readable"):
 
-* checkpoints are taken only between steps; the first Ctrl-C (SIGINT) lets the current step finish and stops
+* checkpoints are taken only between steps; the first Ctrl-C (SIGINT) or SIGTERM (a batch scheduler's time
+  limit, ``kill``) lets the current step finish and stops
   with a checkpoint of it, a second one stops at once and keeps the last complete state (the newest of the
   in-memory snapshot and the checkpoint on disk);
 * every checkpoint records the resolved scenario; a restart with a scenario that differs is refused with the
@@ -628,7 +629,7 @@ class Simulation:
         # parallel loops hand out one row at a time: the rows differ in work (the cylinder mask shortens
         # the outer ones), and equal blocks per thread left one core idle part of the time (≈ 5 % per step)
         chunk = numba.set_parallel_chunksize(1)
-        previous_handler = self._catch_sigint()
+        previous_handlers = self._catch_stop_signals()
         completed = False
         try:
             for cb in self._active:
@@ -719,8 +720,8 @@ class Simulation:
             self.status = "failed"
             raise
         finally:
-            if previous_handler is not None:
-                signal.signal(signal.SIGINT, previous_handler)
+            for signum, previous in previous_handlers.items():
+                signal.signal(signum, previous)
             numba.set_parallel_chunksize(chunk)
             errors = self._finalize_callbacks()  # files closed, the progress bar's final state
             self.notes += errors
@@ -783,11 +784,13 @@ class Simulation:
             self.run_dir.write_summary(summary)
         return summary
 
-    def _catch_sigint(self):
-        """First Ctrl-C: finish the step, checkpoint, stop (status ``interrupted``); a second one interrupts
-        at once. Only in the main thread (signal handlers cannot be set elsewhere, e.g. in dask workers)."""
+    def _catch_stop_signals(self) -> dict:
+        """First Ctrl-C (SIGINT) or SIGTERM (what a batch scheduler sends at its time limit, or ``kill``):
+        finish the step, checkpoint, stop (status ``interrupted``); a second one interrupts at once. Only in the
+        main thread (signal handlers cannot be set elsewhere, e.g. in dask workers). Returns the previous
+        handlers."""
         if threading.current_thread() is not threading.main_thread():
-            return None
+            return {}
         self._stop_requested = False
 
         def handler(signum, frame):
@@ -795,10 +798,13 @@ class Simulation:
                 raise KeyboardInterrupt
             self._stop_requested = True
 
-        try:
-            return signal.signal(signal.SIGINT, handler)
-        except ValueError:
-            return None
+        previous = {}
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            try:
+                previous[signum] = signal.signal(signum, handler)
+            except ValueError:
+                pass
+        return previous
 
     def _energy_limit_crossed(self, ratio: float) -> None:
         """``[solver] kinetic_energy_limit`` crossed after a complete step: stop there (that step is the last
