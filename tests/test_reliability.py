@@ -91,6 +91,13 @@ def test_differences_name_the_edited_keys_and_the_safe_ones_pass_only_when_allow
     assert "[loading].velocity 0.5 → 0.25" in str(err.value) and "[domain].fine_size 0.1 → 0.08" in str(
         err.value
     )
+    # a scenario recorded by an older version (a checkpoint's) lacks the keys added since: at their defaults
+    # they are no change, set otherwise they are
+    older = scenario_to_dict(a)
+    del older["output"]["checkpoint_every_minutes"]
+    assert scenario_differences(older, a) == []
+    d = scenario_from_dict(_pile(**{"output.checkpoint_every_minutes": 3.0}))
+    assert [x.key for x in scenario_differences(older, d)] == ["output.checkpoint_every_minutes"]
     # spelling out a default is no change; a changed layer is named with its index
     assert scenario_differences(a, scenario_from_dict(_pile(**{"solver.safety_factor": 0.9}))) == []
     c = json.loads(json.dumps(PILE))
@@ -202,6 +209,27 @@ def test_sigterm_stops_like_ctrl_c_with_a_checkpoint(reference, tmp_path):
     assert signal.getsignal(signal.SIGTERM) is handler
     assert ckpt.load_checkpoint(root / "checkpoint.npz")[1]["step"] == 120
     _sim(root).run(restart=True)
+    pd.testing.assert_frame_equal(_history(root), _history(reference[0]), rtol=1e-12, atol=0.0)
+
+
+def test_a_checkpoint_comes_after_the_wall_clock_interval_too(reference, tmp_path):
+    """With checkpoints every 10⁶ steps but every 10⁻⁶ min of wall time, the checkpoint on disk during the run
+    is that of the step just taken (or the one before); the history is unchanged."""
+    import copy
+
+    data = copy.deepcopy(PILE)
+    data["output"] = dict(
+        data.get("output", {}), checkpoint_every_steps=1_000_000, checkpoint_every_minutes=1e-6
+    )
+    root = tmp_path / "run"
+    seen = []
+
+    def look(sim):
+        if sim.field.step_count in (40, 80):
+            seen.append(ckpt.load_checkpoint(root / "checkpoint.npz")[1]["step"])
+
+    _sim(root, data).run(callback=look)
+    assert len(seen) == 2 and all(n - 1 <= s <= n for s, n in zip(seen, (40, 80), strict=True))
     pd.testing.assert_frame_equal(_history(root), _history(reference[0]), rtol=1e-12, atol=0.0)
 
 

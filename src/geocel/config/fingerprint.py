@@ -20,7 +20,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from .scenario import Scenario, scenario_to_dict
+from .scenario import Scenario, scenario_from_dict, scenario_to_dict
 
 __all__ = [
     "SAFE_TO_CHANGE",
@@ -125,9 +125,23 @@ def scenario_differences(
     old: Scenario | Mapping[str, Any], new: Scenario | Mapping[str, Any]
 ) -> list[Difference]:
     """The keys whose resolved values differ between two scenarios, in file order."""
-    a, b = flatten(resolved_dict(old)), flatten(resolved_dict(new))
+    a, b = _recorded(old), flatten(resolved_dict(new))
     keys = list(a) + [k for k in b if k not in a]
     return [Difference(k, a.get(k), b.get(k)) for k in keys if not _equal(a.get(k), b.get(k))]
+
+
+def _recorded(old: Scenario | Mapping[str, Any]) -> dict[str, Any]:
+    """The flattened resolved scenario; one recorded by an older version (a checkpoint's) gets the keys added
+    since then at their defaults (a new key's default keeps the old behaviour), the recorded keys unchanged."""
+    a = flatten(resolved_dict(old))
+    if isinstance(old, Scenario):
+        return a
+    try:
+        filled = flatten(resolved_dict(scenario_from_dict(dict(old))))
+    except (ValueError, TypeError):  # recorded keys this version no longer knows: compare as recorded
+        return a
+    a.update({k: v for k, v in filled.items() if k not in a})
+    return a
 
 
 class ScenarioMismatchError(ValueError):

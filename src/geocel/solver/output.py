@@ -30,6 +30,7 @@ history does.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -193,6 +194,43 @@ class AnyOf(_Interval):
 
     def __repr__(self) -> str:
         return f"AnyOf({', '.join(map(repr, self.schedules))})"
+
+
+class StepsOrWallClock(Schedule):
+    """Every ``n`` steps (as :class:`StepInterval` without the initial state) and, in between, whenever
+    ``seconds`` of wall-clock time have passed since it was last due: for outputs whose timing does not change
+    the results, such as checkpoints (a crash then loses at most that much work, however slow the steps)."""
+
+    def __init__(self, n: int, seconds: float) -> None:
+        if not (float(seconds) > 0.0):
+            raise ValueError(f"StepsOrWallClock: seconds = {seconds!r} must be > 0")
+        self.steps = StepInterval(n, at_start=False)
+        self.seconds = float(seconds)
+        self._last = time.monotonic()
+
+    def due(self, sim: Simulation) -> bool:
+        now = time.monotonic()
+        if self.steps.due(sim) or now - self._last >= self.seconds:
+            self._last = now
+            return True
+        return False
+
+    def reset(self) -> None:
+        self.steps.reset()
+        self._last = time.monotonic()
+
+    def state(self) -> dict[str, Any]:
+        return self.steps.state()
+
+    def restore(self, state: Mapping[str, Any]) -> None:
+        self.steps.restore(state)
+        self._last = time.monotonic()
+
+    def join(self, sim: Simulation) -> None:
+        self.steps.join(sim)
+
+    def __repr__(self) -> str:
+        return f"StepsOrWallClock({self.steps.interval:g}, {self.seconds:g} s)"
 
 
 class AtEnd(Schedule):

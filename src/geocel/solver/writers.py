@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..io.history import HistoryWriter, truncate_after
 from ..io.vtk import PvdSeries
-from .output import Callback, Schedule, StepInterval
+from .output import Callback, Schedule, StepInterval, StepsOrWallClock
 
 if TYPE_CHECKING:
     from .backend import Backend
@@ -237,13 +237,15 @@ class FieldsOutput(Callback):
 
 
 class CheckpointOutput(Callback):
-    """``checkpoint.npz`` every ``n`` steps and when the run stops (:meth:`Simulation.checkpoint`). It runs
-    after every other callback, so the checkpoint holds their state too."""
+    """``checkpoint.npz`` every ``n`` steps, after ``minutes`` of wall-clock time since the last one (None:
+    steps only), and when the run stops (:meth:`Simulation.checkpoint`). It runs after every other callback,
+    so the checkpoint holds their state too."""
 
     order = 100
 
-    def __init__(self, n: int) -> None:
-        super().__init__(schedule=StepInterval(n, at_start=False), name="checkpoint")
+    def __init__(self, n: int, minutes: float | None = None) -> None:
+        schedule = StepInterval(n, at_start=False) if minutes is None else StepsOrWallClock(n, 60.0 * minutes)
+        super().__init__(schedule=schedule, name="checkpoint")
 
     def __call__(self, sim: Simulation) -> None:
         sim.wall_time = sim.elapsed()
