@@ -94,10 +94,10 @@ def test_differences_name_the_edited_keys_and_the_safe_ones_pass_only_when_allow
     # a scenario recorded by an older version (a checkpoint's) lacks the keys added since: at their defaults
     # they are no change, set otherwise they are
     older = scenario_to_dict(a)
-    del older["output"]["checkpoint_every_minutes"]
+    del older["output"]["checkpoint_every_seconds"]
     assert scenario_differences(older, a) == []
-    d = scenario_from_dict(_pile(**{"output.checkpoint_every_minutes": 3.0}))
-    assert [x.key for x in scenario_differences(older, d)] == ["output.checkpoint_every_minutes"]
+    d = scenario_from_dict(_pile(**{"output.checkpoint_every_seconds": 3.0}))
+    assert [x.key for x in scenario_differences(older, d)] == ["output.checkpoint_every_seconds"]
     # spelling out a default is no change; a changed layer is named with its index
     assert scenario_differences(a, scenario_from_dict(_pile(**{"solver.safety_factor": 0.9}))) == []
     c = json.loads(json.dumps(PILE))
@@ -213,13 +213,13 @@ def test_sigterm_stops_like_ctrl_c_with_a_checkpoint(reference, tmp_path):
 
 
 def test_a_checkpoint_comes_after_the_wall_clock_interval_too(reference, tmp_path):
-    """With checkpoints every 10⁶ steps but every 10⁻⁶ min of wall time, the checkpoint on disk during the run
+    """With checkpoints every 10⁶ steps but every 10⁻⁸ s of wall time, the checkpoint on disk during the run
     is that of the step just taken (or the one before); the history is unchanged."""
     import copy
 
     data = copy.deepcopy(PILE)
     data["output"] = dict(
-        data.get("output", {}), checkpoint_every_steps=1_000_000, checkpoint_every_minutes=1e-6
+        data.get("output", {}), checkpoint_every_steps=1_000_000, checkpoint_every_seconds=1e-8
     )
     root = tmp_path / "run"
     seen = []

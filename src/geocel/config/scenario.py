@@ -458,11 +458,11 @@ class Output(_Table):
     history_every_time: float | None = Field(None, gt=0.0, description="history row every Δt (optional), s")
     fields_every_time: float | None = Field(None, gt=0.0, description="field snapshot every Δt (optional), s")
     checkpoint_every_steps: int = Field(20000, gt=0, description="checkpoint every N steps, -")
-    checkpoint_every_minutes: float | None = Field(
-        10.0,
+    checkpoint_every_seconds: float | None = Field(
+        600.0,
         gt=0.0,
-        description="also checkpoint after this much wall-clock time since the last checkpoint (None: by "
-        "steps only); a crash or kill -9 then loses at most this much work, min",
+        description="also checkpoint after this much wall-clock time since the last checkpoint (None: by steps "
+        "only; a crash or kill -9 then loses at most this much work), s",
     )
     directory: str | None = Field(None, min_length=1, description="run directory (None: the runner decides)")
 

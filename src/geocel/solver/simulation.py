@@ -212,7 +212,7 @@ class Simulation:
         self.history_dt = o.history_every_time or (np.inf if self.has_pile else self.duration / 200.0)
         self.fields_dt = o.fields_every_time or (np.inf if self.has_pile else self.duration / 10.0)
         self.checkpoint_every = o.checkpoint_every_steps
-        self.checkpoint_minutes = o.checkpoint_every_minutes
+        self.checkpoint_seconds = o.checkpoint_every_seconds
         self.max_steps = scenario.solver.max_steps
         self.ke_limit = scenario.solver.kinetic_energy_limit
         self.progress = progress
@@ -254,7 +254,7 @@ class Simulation:
             HistoryOutput(AnyOf(PenetrationInterval(self.history_dz), TimeInterval(self.history_dt))),
             FieldsOutput(AnyOf(PenetrationInterval(self.fields_dz), TimeInterval(self.fields_dt))),
             ProgressOutput(),
-            CheckpointOutput(self.checkpoint_every, self.checkpoint_minutes),
+            CheckpointOutput(self.checkpoint_every, self.checkpoint_seconds),
         ]
         for cb in callbacks:
             self.add_callback(cb)

@@ -237,14 +237,14 @@ class FieldsOutput(Callback):
 
 
 class CheckpointOutput(Callback):
-    """``checkpoint.npz`` every ``n`` steps, after ``minutes`` of wall-clock time since the last one (None:
+    """``checkpoint.npz`` every ``n`` steps, after ``seconds`` of wall-clock time since the last one (None:
     steps only), and when the run stops (:meth:`Simulation.checkpoint`). It runs after every other callback,
     so the checkpoint holds their state too."""
 
     order = 100
 
-    def __init__(self, n: int, minutes: float | None = None) -> None:
-        schedule = StepInterval(n, at_start=False) if minutes is None else StepsOrWallClock(n, 60.0 * minutes)
+    def __init__(self, n: int, seconds: float | None = None) -> None:
+        schedule = StepInterval(n, at_start=False) if seconds is None else StepsOrWallClock(n, seconds)
         super().__init__(schedule=schedule, name="checkpoint")
 
     def __call__(self, sim: Simulation) -> None:
