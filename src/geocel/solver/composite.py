@@ -60,7 +60,7 @@ class CompositeField(FieldBalances):
             self.cross_mean = None
         if self.cross_mean is not None:
             for lvl in self.levels:  # their own means (one box each) are not used
-                lvl._nonlocal_weights, lvl._nonlocal_scratch = None, ()
+                lvl.release_own_nonlocal_mean()
         self.contact = None
         self.governing_level = -1
 

@@ -415,6 +415,11 @@ class SoilField(FieldBalances):
             self._force_factors,
         )
 
+    def release_own_nonlocal_mean(self) -> None:
+        """Free the per-axis weights and scratch of this field's own non-local mean: a caller that sets
+        ``nonlocal_factor`` itself (nested columns) passes ``nonlocal_given`` to :meth:`cell_pass`."""
+        self._nonlocal_weights, self._nonlocal_scratch = None, ()
+
     def cell_pass(self, dt: float, nonlocal_given: bool | None = None) -> tuple[float, int]:
         """Strain rates, soil model, bulk viscosity and hourglass control of every cell
         (:func:`update_cells`); returns (critical Δt, the governing cell's flat index). ``nonlocal_given``:
