@@ -24,7 +24,7 @@ from numba import njit, prange
 from ..materials.flags import SUBSTEP_LIMIT
 from ..materials.kernels import cell_update
 from ..materials.tensor import KERNEL_OPTIONS
-from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
+from .nonlocal_mean import box_weights, factor_from_mean, nonlocal_mean
 
 #: a cell whose soil volume fraction is below this carries no stress (void)
 PHI_MIN = 1.0e-3
@@ -535,12 +535,7 @@ def nonlocal_weights(grid, length: float) -> tuple:
     """The per-axis weights of :func:`geocel.euler.nonlocal_mean.nonlocal_mean` for a box grid: the Gaussian
     along x, y and z, with the mirror images across the symmetry planes x = 0 (quarter) and y = 0 (quarter,
     half), so that a part model's mean is the full body's."""
-    sym = grid.symmetry
-    return (
-        axis_weights(grid.xc, length, mirror=sym == "quarter"),
-        axis_weights(grid.yc, length, mirror=sym in ("quarter", "half")),
-        axis_weights(grid.zc, length),
-    )
+    return box_weights(grid.xc, grid.yc, grid.zc, length, grid.symmetry)
 
 
 def nonlocal_factor(v, hx, hy, hz, active, Vs, weights, nd, scratch, out) -> None:

@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from .lagrange import stretching_norms
-from .nonlocal_mean import REACH, axis_weights, factor_from_mean, nonlocal_mean, reaches_a_neighbour
+from .nonlocal_mean import REACH, box_weights, factor_from_mean, nonlocal_mean, reaches_a_neighbour
 
 
 class CrossLevelMean:
@@ -36,11 +36,7 @@ class CrossLevelMean:
         sym = layout.symmetry
         self.levels: list[dict | None] = []
         for L, g in enumerate(layout.grids):
-            own = (
-                axis_weights(g.xc, length, mirror=sym == "quarter"),
-                axis_weights(g.yc, length, mirror=sym in ("quarter", "half")),
-                axis_weights(g.zc, length),
-            )
+            own = box_weights(g.xc, g.yc, g.zc, length, sym)
             if not reaches_a_neighbour(own):
                 self.levels.append(None)  # the local model on this level
                 continue
@@ -52,15 +48,10 @@ class CrossLevelMean:
             ox = int(round((g.x[0] - xe[0]) / h))
             oy = int(round((g.y[0] - ye[0]) / h))
             cols, srcs, fracs = self._sources(L, xe, ye, ox, oy)
-            nz = g.zc.size
-            shape = (xc.size, yc.size, nz)
+            shape = (xc.size, yc.size, g.zc.size)
             self.levels.append(
                 dict(
-                    weights=(
-                        axis_weights(xc, length, mirror=sym == "quarter"),
-                        axis_weights(yc, length, mirror=sym in ("quarter", "half")),
-                        own[2],
-                    ),
+                    weights=box_weights(xc, yc, g.zc, length, sym),
                     inner=(slice(ox, ox + g.xc.size), slice(oy, oy + g.yc.size)),
                     cols=cols,
                     srcs=srcs,

@@ -75,6 +75,17 @@ def axis_weights(
     return lo.astype(np.int64), w
 
 
+def box_weights(xc, yc, zc, length: float, symmetry: str) -> tuple:
+    """The three axes' weights for the cell centres of a 3D box model: the Gaussian along x, y and z, with the
+    mirror images across the symmetry planes x = 0 (quarter) and y = 0 (quarter, half), so that a part model's
+    mean is the full body's."""
+    return (
+        axis_weights(xc, length, mirror=symmetry == "quarter"),
+        axis_weights(yc, length, mirror=symmetry in ("quarter", "half")),
+        axis_weights(zc, length),
+    )
+
+
 def reaches_a_neighbour(weights) -> bool:
     """Whether the mean of :func:`nonlocal_mean` with these per-axis weights takes in any cell but the cell
     itself (and its mirror image): if not, the non-local model is the local one (factor 1) and need not be
