@@ -669,6 +669,78 @@ def _print_summary(summary: dict) -> None:
 
 
 @app.command()
+def compare(
+    runs: Annotated[
+        list[Path], typer.Argument(help="run directories (or measured CSVs: depth_m, qb_MPa[, qs_kPa])")
+    ],
+    reference: Annotated[
+        Path | None,
+        typer.Option(help="run directory or measured CSV the MPE is taken against (default: the finest run)"),
+    ] = None,
+    from_depth: Annotated[float, typer.Option("--from", help="shallowest depth compared, m")] = 0.3,
+    to_depth: Annotated[
+        float | None,
+        typer.Option("--to", help="deepest depth compared, m (default: where the first run ends)"),
+    ] = None,
+    step: Annotated[float, typer.Option(help="spacing of the compared depths, m")] = 0.05,
+    at: Annotated[str | None, typer.Option(help="depths of the table, comma-separated, m")] = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(help="write compare.csv, curves.csv, convergence.json and compare.png here"),
+    ] = None,
+) -> None:
+    """Compare pile runs: q_b and q_s at depths, their mean percentage error (MPE) against a reference and,
+    for runs of different cell sizes, the grid convergence (MPE between successive grids; from three grids
+    the observed order, Roache's grid convergence index and the Richardson-extrapolated curve). Each run's
+    curves are averaged over one cell of tip depth first."""
+    from .analysis.compare import compare_runs
+
+    with user_errors():
+        depths = None if at is None else [float(v) for v in _floats(at, len(at.split(",")), "--at")]
+        if out is not None:
+            _check_out_dir(out)
+        res = compare_runs(runs, reference, from_depth, to_depth, step, depths)
+    t = res.table
+    for col, name, unit in (("qb", "q_b", "MPa"), ("qs", "q_s", "kPa")):
+        table = Table(
+            title=f"{name} ({unit}) at tip depths; MPE over {from_depth:g}–{res.depths[-1]:g} m against "
+            f"{escape(t.attrs['reference'])} (signed mean)"
+        )
+        table.add_column("run", overflow="fold")
+        table.add_column("cell (m)", justify="right")
+        for z in res.at:
+            table.add_column(f"{z:g} m", justify="right")
+        table.add_column("MPE", justify="right")
+        for _, row in t.iterrows():
+            table.add_row(
+                escape(str(row["run"])),
+                f"{row['cell_m']:g}",
+                *(f"{row[f'{col}_{z:g}m_{unit}']:.3g}" for z in res.at),
+                f"{row[f'MPE_{col}_%']:.1f} % ({row[f'signed_{col}_%']:+.1f})",
+            )
+        console.print(table)
+    if not res.convergence:
+        console.print("no grid convergence: it needs runs of two or more cell sizes, one run per size")
+    for col, conv in res.convergence.items():
+        name = {"qb": "q_b", "qs": "q_s"}[col]
+        steps = ", ".join(f"{escape(a)} → {escape(b)} {m:.1f} %" for a, b, m in conv["pairs"])
+        console.print(f"{name}: MPE between successive grids: {steps}")
+        if len(conv["pairs"]) >= 2:
+            if math.isfinite(conv["order"]):
+                console.print(
+                    f"  observed order {conv['order']:.2f}, grid convergence index of the finest "
+                    f"{conv['gci_percent']:.1f} %, monotone at {100 * conv['monotone_fraction']:.0f} % of the depths"
+                )
+            else:
+                console.print(
+                    "  [yellow]the differences do not shrink with the cells: no order, no index[/yellow]"
+                )
+    if out is not None:
+        for path in res.write(out):
+            console.print(f"written: {path}")
+
+
+@app.command()
 def presets() -> None:
     """List the named material parameter sets."""
     from .config.materials import PRESETS

@@ -22,9 +22,9 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
+from ..analysis.compare import mpe
 from ..batch import dask_client, run_in_directory, run_state, run_tasks
 from ..config.scenario import Scenario
 from ..io.history import read_history
@@ -226,20 +226,6 @@ def plan_benchmark(
         out, resolution, penetration, velocity, todo, states, ref,
         f"measured ({Path(reference).name})" if reference is not None else None, rerun, symmetry,
     )  # fmt: skip
-
-
-def mpe(depth: np.ndarray, q: np.ndarray, ref_depth: np.ndarray, ref_q: np.ndarray) -> float:
-    """Mean percentage error over the reference samples where |q_ref| > 2 % of its maximum and the run has
-    data: mean |q − q_ref| / |q_ref| × 100, q interpolated to the reference depths."""
-    ok = np.isfinite(q)
-    if ok.sum() < 2:
-        return float("nan")
-    order = np.argsort(depth[ok])
-    qi = np.interp(ref_depth, depth[ok][order], q[ok][order], left=np.nan, right=np.nan)
-    sel = (np.abs(ref_q) > 0.02 * np.nanmax(np.abs(ref_q))) & np.isfinite(qi)
-    if not sel.any():
-        return float("nan")
-    return float(np.mean(np.abs(qi[sel] - ref_q[sel]) / np.abs(ref_q[sel])) * 100.0)
 
 
 def _machine() -> str:
