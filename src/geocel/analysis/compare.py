@@ -224,10 +224,7 @@ def plot_comparison(
 ) -> Path:
     """q_b(z) (MPa) and q_s(z) (kPa) of ``runs``; ``reference`` dashed black (unless it is one of the runs);
     ``extrapolated``: column (qb, qs) → (depths, values in Pa), dotted black."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from ..benchmark.plots import plt, save_figure
 
     fig, ax = plt.subplots(1, 2, figsize=(10, 6), sharey=True)
     for run in runs:
@@ -247,14 +244,7 @@ def plot_comparison(
     for a in ax:
         a.grid(alpha=0.3)
         a.legend(fontsize=8)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, title)
 
 
 @dataclass

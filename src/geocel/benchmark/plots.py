@@ -21,6 +21,7 @@ __all__ = [
     "check_start_depth",
     "plot_curves",
     "plot_run",
+    "save_figure",
     "value_at_depth",
     "verdict",
 ]
@@ -56,6 +57,18 @@ def check_start_depth(h: pd.DataFrame, start_penetration: float | None) -> float
         return float("nan")
     rows = h[h["penetration"] >= start_penetration - 1e-9]
     return float(rows["tip_depth"].iloc[0]) if len(rows) else float("nan")
+
+
+def save_figure(fig, path: str | Path, title: str = "") -> Path:
+    """Give ``fig`` its title, lay it out, write it to ``path`` (its directory made), close it."""
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
 
 
 def plot_curves(
@@ -104,14 +117,7 @@ def plot_curves(
     for a in (ax[0], ax[2]):
         if a.get_legend_handles_labels()[0]:
             a.legend(fontsize=8)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, title)
 
 
 def plot_run(run_dir: str | Path, label: str | None = None, width: float = 0.0) -> Path:

@@ -238,7 +238,7 @@ def plot_study(study: Study, curves: dict[str, pd.DataFrame], table: pd.DataFram
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
 
-    from ..benchmark.plots import plt
+    from ..benchmark.plots import plt, save_figure
 
     key = study.colour_by or study.varied[0]
     by_case = table.set_index("case")
@@ -277,8 +277,4 @@ def plot_study(study: Study, curves: dict[str, pd.DataFrame], table: pd.DataFram
     ax.set_title(
         f"{study.name}: q_b of {len(curves)} cases" + (" (faint: not finished)" if unfinished else "")
     )
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
