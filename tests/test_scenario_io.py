@@ -581,3 +581,14 @@ def test_run_directory(tmp_path: Path, design_file: Path):
     assert "NaN" not in text and json.loads(text)["max_energy_ratio"] is None
     assert rd.read_summary() == {"steps": 10, "dt_min": 1e-4, "max_energy_ratio": None, "status": "ok"}
     assert not list(rd.root.glob("*.tmp"))
+
+
+@pytest.mark.parametrize(
+    "path",
+    sorted(p for p in (Path(__file__).resolve().parents[1] / "examples").glob("*.toml") if "sweep" not in p.name),
+    ids=lambda p: p.name,
+)
+def test_every_example_scenario_validates(path):
+    from geocel.config.scenario import load_scenario
+
+    assert load_scenario(path).name
