@@ -417,3 +417,20 @@ def test_subcycled_solid_pile_follows_the_rigid_pile_when_the_soil_outweighs_it(
     jumps = np.abs(np.diff(runs["solid"][h:, 1]))
     assert jumps.mean() < 0.02 * 0.5 and jumps.max() < 0.1 * 0.5
     assert np.abs(qb_s - qb_r).mean() < 0.15 * qb_r.mean()
+
+
+@pytest.mark.parametrize(
+    ("symmetry", "penetration", "noted"),
+    [("quarter", 3.0, True), ("quarter", 1.5, False), ("axisymmetric", 3.0, False)],
+)
+def test_a_3d_pile_run_below_the_converged_depth_gets_a_note(tmp_path, symmetry, penetration, noted):
+    # docs/validation.md, "To 9 m": the 3D q_b diverges from the converged r–z one below about 2 m
+    from geocel.benchmark.presets import preset_dict
+    from geocel.config.scenario import scenario_from_dict
+    from geocel.solver.simulation import UNCONVERGED_3D_DEPTH, Simulation
+
+    d = preset_dict("deeks-white", penetration=penetration, velocity=0.5, symmetry=symmetry, scaling=10)
+    sim = Simulation(scenario_from_dict(d), out=tmp_path / "run", progress=False)
+    assert (
+        any(f"below about {UNCONVERGED_3D_DEPTH:g} m is not grid-converged" in n for n in sim.notes) == noted
+    )

@@ -60,6 +60,9 @@ from .writers import (  # noqa: F401  (HISTORY_*, history_preamble: re-exported,
 #: version of the checkpoint metadata (2: with the scenario, status, phase times and governing element; 3: with
 #: the state of every callback, ``callbacks``, and the step they last ran for, ``outputs_step``)
 CHECKPOINT_FORMAT = 3
+#: tip depth (m) below which the 3D q_b was found not grid-converged (docs/validation.md, "To 9 m": within 5 %
+#: of r–z to about 2 m at 3 cells per pile radius, then diverging); a 3D pile run deeper gets a note
+UNCONVERGED_3D_DEPTH = 2.0
 
 
 def build_grid(scenario: Scenario) -> Grid:
@@ -236,6 +239,15 @@ class Simulation:
         self.pile_steps = 0
         #: one line per event a user should know of (checkpoint fallbacks, allowed changes, restarts)
         self.notes: list[str] = []
+        if self.has_pile and scenario.domain.symmetry != "axisymmetric":
+            tip = scenario.pile.initial_embedment + ld.penetration
+            if tip > UNCONVERGED_3D_DEPTH:
+                self.notes.append(
+                    f"the tip goes to {tip:g} m: in 3D (the laboratory's frame) q_b below about "
+                    f"{UNCONVERGED_3D_DEPTH:g} m is not grid-converged at the cells affordable on a workstation "
+                    '(docs/validation.md, "To 9 m"); for a vertically loaded pile the r–z model '
+                    '([domain] symmetry = "axisymmetric") converges'
+                )
         #: the scenario keys that differed from the checkpoint's on a restart (allowed ones)
         self.restarts: list[dict] = []
         self.diagnostic: dict | None = None
