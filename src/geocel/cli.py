@@ -680,7 +680,7 @@ def compare(
     from_depth: Annotated[float, typer.Option("--from", help="shallowest depth compared, m")] = 0.3,
     to_depth: Annotated[
         float | None,
-        typer.Option("--to", help="deepest depth compared, m (default: where the first run ends)"),
+        typer.Option("--to", help="deepest depth compared, m (default: where the shallowest run ends)"),
     ] = None,
     step: Annotated[float, typer.Option(help="spacing of the compared depths, m")] = 0.05,
     at: Annotated[str | None, typer.Option(help="depths of the table, comma-separated, m")] = None,
@@ -731,6 +731,11 @@ def compare(
                     f"  observed order {conv['order']:.2f}, grid convergence index of the finest "
                     f"{conv['gci_percent']:.1f} %, monotone at {100 * conv['monotone_fraction']:.0f} % of the depths"
                 )
+                if conv["order"] < 0.5:
+                    console.print(
+                        "  [yellow]the differences barely shrink (order < 0.5): not in the asymptotic range, "
+                        "the index is no error bound[/yellow]"
+                    )
             else:
                 console.print(
                     "  [yellow]the differences do not shrink with the cells: no order, no index[/yellow]"
