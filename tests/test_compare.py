@@ -141,3 +141,14 @@ def test_cli_compare_errors_are_one_line(tmp_path):
     res = runner.invoke(app, ["compare", str(run), "--from", "3.5"])
     assert res.exit_code == 2 and "nothing to compare" in res.output
     assert read_curves(run).cell_size == 0.1
+
+
+def test_no_extrapolation_when_the_differences_barely_shrink():
+    # q_h = q0 (1 + C h^0.2): the order is found (0.2) and the index still equals the true error × 1.25, but
+    # nothing is extrapolated (an order this low is outside the asymptotic range in practice)
+    runs = [curves(h, 0.2, c=0.1) for h in (0.2, 0.1, 0.05)]
+    conv = grid_convergence(runs, np.arange(0.3, 2.9, 0.05), "qb")
+    assert conv["order"] == pytest.approx(0.2, rel=1e-9)
+    fine = 0.1 * 0.05**0.2
+    assert conv["gci_percent"] / 1.25 == pytest.approx(100 * fine / (1 + fine), rel=1e-9)
+    assert conv["extrapolated"] is None

@@ -693,7 +693,7 @@ def compare(
     for runs of different cell sizes, the grid convergence (MPE between successive grids; from three grids
     the observed order, Roache's grid convergence index and the Richardson-extrapolated curve). Each run's
     curves are averaged over one cell of tip depth first."""
-    from .analysis.compare import compare_runs
+    from .analysis.compare import MIN_ORDER, compare_runs
 
     with user_errors():
         depths = None if at is None else [float(v) for v in _floats(at, len(at.split(",")), "--at")]
@@ -731,10 +731,10 @@ def compare(
                     f"  observed order {conv['order']:.2f}, grid convergence index of the finest "
                     f"{conv['gci_percent']:.1f} %, monotone at {100 * conv['monotone_fraction']:.0f} % of the depths"
                 )
-                if conv["order"] < 0.5:
+                if conv["order"] < MIN_ORDER:
                     console.print(
-                        "  [yellow]the differences barely shrink (order < 0.5): not in the asymptotic range, "
-                        "the index is no error bound[/yellow]"
+                        f"  [yellow]the differences barely shrink (order < {MIN_ORDER:g}): not in the asymptotic "
+                        "range, the index is no error bound and nothing is extrapolated[/yellow]"
                     )
             else:
                 console.print(

@@ -45,6 +45,8 @@ __all__ = [
 
 #: the safety factor of the grid convergence index for three grids (Roache 1998)
 GCI_SAFETY = 1.25
+#: below this observed order the differences barely shrink: not in the asymptotic range, no extrapolation
+MIN_ORDER = 0.5
 
 
 @dataclass
@@ -184,7 +186,8 @@ def grid_convergence(runs: list[RunCurves], depths: np.ndarray, column: str = "q
     convergence index of the finest and the extrapolated curve from the three finest (module docstring).
 
     Returns ``{"pairs": [(coarser, finer, MPE %)], "order", "gci_percent", "monotone_fraction",
-    "extrapolated"}`` (the last four NaN / None with fewer than three grids or where p is undefined)."""
+    "extrapolated"}`` (the last four NaN / None with fewer than three grids or where p is undefined; no
+    extrapolated curve below the order :data:`MIN_ORDER`)."""
     runs = sorted((r for r in runs if math.isfinite(r.cell_size)), key=lambda r: -r.cell_size)
     if len({r.cell_size for r in runs}) != len(runs) or len(runs) < 2:
         raise ValueError(
@@ -209,6 +212,7 @@ def grid_convergence(runs: list[RunCurves], depths: np.ndarray, column: str = "q
     if math.isfinite(p):
         out["order"] = p
         out["gci_percent"] = float(GCI_SAFETY * 100 * np.mean(np.abs(d21 / f1[ok])) / (r21**p - 1.0))
+    if math.isfinite(p) and p >= MIN_ORDER:
         ext = np.full(len(depths), np.nan)
         ext[ok] = f1[ok] + (f1[ok] - f2[ok]) / (r21**p - 1.0)
         out["extrapolated"] = ext
