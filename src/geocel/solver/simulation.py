@@ -246,7 +246,7 @@ class Simulation:
                     f"the tip goes to {tip:g} m: in 3D (the laboratory's frame) q_b below about "
                     f"{UNCONVERGED_3D_DEPTH:g} m is not grid-converged at the cells affordable on a workstation "
                     '(docs/validation.md, "To 9 m"); for a vertically loaded pile the r–z model '
-                    '([domain] symmetry = "axisymmetric") moves by 3–4 % per refinement to 9 m'
+                    '([domain] symmetry = "axisymmetric") converges to 9 m'
                 )
         #: the scenario keys that differed from the checkpoint's on a restart (allowed ones)
         self.restarts: list[dict] = []
