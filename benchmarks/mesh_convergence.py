@@ -267,9 +267,10 @@ def _one(args) -> dict:
 
 
 def mpe(a: np.ndarray, b: np.ndarray) -> float:
-    """Mean percentage difference of a against b where both are finite."""
-    ok = np.isfinite(a) & np.isfinite(b) & (b != 0)
-    return float(100 * np.mean(np.abs(a[ok] / b[ok] - 1))) if ok.any() else float("nan")
+    """Mean percentage difference of a against b where both are finite (:func:`geocel.analysis.compare.signed_mpe`)."""
+    from geocel.analysis.compare import signed_mpe
+
+    return signed_mpe(a, b)[0]
 
 
 def running_mean(x: np.ndarray, n: int = SMOOTH) -> np.ndarray:
