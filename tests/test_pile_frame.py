@@ -184,7 +184,6 @@ def test_pile_frame_through_a_scenario_reports_laboratory_depths(tmp_path):
 @pytest.mark.parametrize(
     ("domain", "needle"),
     [
-        ({"frame": "pile", "symmetry": "quarter"}, 'needs symmetry = "axisymmetric"'),
         ({"frame": "pile", "void_height": 0.02}, "[domain].void_height = 0.02: in the pile's frame"),
         ({"frame": "pile", "pile": False}, '[domain].frame = "pile": the pile\'s frame needs a [pile]'),
     ],

@@ -152,9 +152,10 @@ class Domain(_Table):
     frame: Literal["laboratory", "pile"] = Field(
         "laboratory",
         description="the grid's frame: laboratory (fixed; the pile's base moves through the node rows) or pile "
-        "(axisymmetric only: the grid moves down with the pile's base, which stays on its node row, and "
+        "(the grid moves down with the pile's base, which stays on its node row, and "
         "undisturbed soil flows in through the bottom; soil_depth and fine_depth are then measured below the "
-        "base's start, and void_height must hold the penetration plus the heave)",
+        "base's start, and void_height must hold the penetration plus the heave; experimental in 3D: its q_b "
+        "there is a third of the r–z model's, docs/validation.md)",
     )
 
     @model_validator(mode="after")
@@ -165,8 +166,6 @@ class Domain(_Table):
                 self.layout,
                 'nested columns are a 3D layout (symmetry = "axisymmetric" has its own grid)',
             )
-        if self.frame == "pile" and self.symmetry != "axisymmetric":
-            raise _invalid(("frame",), self.frame, 'the pile\'s frame needs symmetry = "axisymmetric"')
         if self.fine_size >= self.radius:
             raise _invalid(("fine_size",), self.fine_size, f"must be smaller than radius = {self.radius} m")
         if self.fine_size >= self.soil_depth:
@@ -567,7 +566,11 @@ class Scenario(_Table):
             # fixed one per remap_courant of a cell, whatever the speed) then shakes all of it, and slow jacking
             # loses q_b (docs/validation.md, "r–z in the pile's frame"): remap after every step
             self.solver.remap_courant = 0.0
-        if self.domain.frame == "pile" and "rim" not in self.contact.model_fields_set:
+        if (
+            self.domain.frame == "pile"
+            and self.domain.symmetry == "axisymmetric"
+            and "rim" not in self.contact.model_fields_set
+        ):
             # the node under the pile's corner split (docs/numerics.md, "The pile's frame"): with one node the
             # soil beside the shaft is stretched there by about ½, whatever the cell size
             self.contact.rim = "corner"

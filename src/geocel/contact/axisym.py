@@ -840,8 +840,7 @@ class AxisymmetricPileContact:
             body = {f"body_{k}": v for k, v in p.state_arrays().items()}
         scalars += [self._pile_motion, self._z_remap, self.soil_work]
         scalars += [self.friction_work, self.worst_friction_excess, self.clamped_motion, self.contact_nodes]
-        f = self.field  # the pile's frame (its inflow reference is rebuilt with the model)
-        scalars += [f.frame_offset, f.frame_velocity, f.inflow_mass, f.refill_offset]
+        scalars += self.field.frame_scalars()  # the pile's frame (its inflow reference is rebuilt with the model)
         vc = (math.nan, math.nan) if self._v_comb is None else self._v_comb
         scalars += [*self._corner, *vc, self._u_in, self._u_B]
         return {
@@ -865,8 +864,7 @@ class AxisymmetricPileContact:
         self.friction_work, self.worst_friction_excess, self.clamped_motion = sc[6:9]
         self.contact_nodes = int(sc[9])
         if len(sc) > 10:  # (checkpoints before the pile's frame: a fixed grid)
-            f = self.field
-            f.frame_offset, f.frame_velocity, f.inflow_mass, f.refill_offset = sc[10:14]
+            self.field.restore_frame(sc[10:14])
         if len(sc) > 14:  # (checkpoints before rim = "corner")
             self._corner[:] = sc[14:18]
             self._v_comb = None if math.isnan(sc[18]) else (sc[18], sc[19])

@@ -13,11 +13,11 @@ Per step (see :mod:`geocel.contact.kernels` for the projection itself):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..bodies.pile import ContactLoad, PileBody
+from ..bodies.pile import ContactLoad, PileBody, Surface
 from ..euler.lagrange import node_mass
 from .kernels import (
     contact_work,
@@ -90,6 +90,12 @@ class ContactCoupling:
         self._v_old = np.zeros((0, 0, 0, 3))
         self._box_now: tuple[int, int, int, int, int, int] | None = None
         self.forces = ContactForces(np.zeros(3), np.zeros(3))
+        #: the field whose grid moves with the pile in the pile's frame (the composite of nested levels, or
+        #: ``field``; :meth:`follow_pile`), the base's elevation in that grid (None: a fixed grid) and the
+        #: grid's laboratory offset at the end of the current step (m)
+        self.frame_field = field
+        self._z_frame: float | None = None
+        self._offset = 0.0
         self.friction_work = 0.0
         self.soil_work = 0.0
         #: soil volume moved out of the pile by :meth:`after_remap` (m³, modelled part)
@@ -98,6 +104,39 @@ class ContactCoupling:
         self.overfilled_volume = 0.0
 
     # --- geometry ---------------------------------------------------------------------------------------
+    def surface(self) -> Surface:
+        """The pile's surface in the grid's coordinates (the laboratory's in a fixed grid; in the pile's frame
+        shifted by the grid's offset at the end of the step, so that the base lies on its node row)."""
+        s = self.pile.surface()
+        if self._offset == 0.0:
+            return s
+        o = self._offset
+        return replace(s, z_apex=s.z_apex - o, z_shoulder=s.z_shoulder - o, layer_z=s.layer_z - o)
+
+    def follow_pile(self) -> None:
+        """Solve in the pile's frame (docs/numerics.md, "The pile's frame"): the grid moves down with the
+        pile's base (``frame_field.move_with``), which stays on its node row, so no row of soil is ever
+        captured by the base or released from it; the base band becomes half a cell (the base's own row).
+        Call before the first step, after the geostatic state; the base must lie on a node row."""
+        g = self.field.grid
+        zs = self.pile.surface().z_shoulder - self.frame_field.frame_offset
+        k = int(np.argmin(np.abs(g.z - zs)))
+        if abs(g.z[k] - zs) > 1e-9 * float(g.hz[min(k, g.nz - 1)]):
+            raise ValueError(
+                f"in the pile's frame the base (z = {zs:.6g} m) must lie on a node row of the grid (the nearest "
+                f"is z = {g.z[k]:.6g} m): an initial embedment of whole fine cells"
+            )
+        if k < 2:
+            raise ValueError("in the pile's frame the base needs soil cells below it")
+        self._z_frame = float(g.z[k])
+        self._offset = self.frame_field.frame_offset
+        self.base_band = min(self.base_band, 0.5 * float(min(g.hz[k - 1], g.hz[min(k, g.nz - 1)])))
+        self.frame_field.move_with()
+
+    def resume_frame(self) -> None:
+        """After the frame's state was restored from a checkpoint: the grid's offset the surface is shifted by."""
+        self._offset = self.frame_field.frame_offset
+
     def _pad(self) -> float:
         """Widening of the node box around the pile: one cell of the grid's finest size, so that every edge
         the surface crosses has both nodes in the box."""
@@ -106,7 +145,7 @@ class ContactCoupling:
 
     def _box(self, pad: float) -> tuple[int, int, int, int, int, int]:
         """Node index box of the pile's extent in the grid, widened by ``pad``."""
-        s = self.pile.surface()
+        s = self.surface()
         g = self.field.grid
         R = s.radius + pad
         i0 = max(int(np.searchsorted(g.x, s.cx - R, "left")) - 1, 0)
@@ -122,7 +161,7 @@ class ContactCoupling:
         """Fraction of every cell occupied by the pile (nx, ny, nz), by samples² vertical lines per cell,
         each exact in z (:func:`pile_fraction`)."""
         g = self.field.grid
-        s = self.pile.surface()
+        s = self.surface()
         out = np.zeros(g.shape)
         i0, i1, j0, j1, k0, k1 = self._box(0.0)
         pile_fraction(
@@ -151,9 +190,14 @@ class ContactCoupling:
         return float(np.maximum(vs - (1.0 - phi_p) * f.volume, 0.0)[f.active3].sum())
 
     # --- the step ----------------------------------------------------------------------------------------
-    def before_nodes(self) -> None:
+    def before_nodes(self, dt: float | None = None) -> None:
         """Keep v^{n−½} of the nodes the projection may touch (the pile has already moved this step), for
-        the work of the contact forces (:func:`contact_work`)."""
+        the work of the contact forces (:func:`contact_work`). In the pile's frame, first set the grid's
+        velocity that brings the base back onto its node row at the end of the step."""
+        if self._z_frame is not None and dt is not None:
+            ff = self.frame_field
+            ff.frame_velocity = (self.pile.surface().z_shoulder - ff.frame_offset - self._z_frame) / dt
+            self._offset = ff.frame_offset + ff.frame_velocity * dt
         self._box_now = i0, i1, j0, j1, k0, k1 = self._box(self._pad())
         self._v_old = self.field.v[i0:i1, j0:j1, k0:k1].copy()
 
@@ -162,7 +206,7 @@ class ContactCoupling:
         nodes with the velocity they end with, and store the pile's contact load for its next step."""
         f = self.field
         g = f.grid
-        s = self.pile.surface()
+        s = self.surface()
         if self._box_now is None:  # called outside SoilField.step: v^{n−½} unknown, taken as v_trial
             self.before_nodes()
         i0, i1, j0, j1, k0, k1 = self._box_now
@@ -216,7 +260,7 @@ class ContactCoupling:
         it; nodal momentum is kept), so the soil stays out of the pile (:func:`exclude_soil`)."""
         f = self.field
         g = f.grid
-        s = self.pile.surface()
+        s = self.surface()
         phi_p = self.pile_fraction()
         i0, i1, j0, j1, k0, k1 = self._box(0.0)
         i1, j1, k1 = min(i1 + 1, g.nx), min(j1 + 1, g.ny), min(k1, g.nz)

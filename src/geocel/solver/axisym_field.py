@@ -153,15 +153,6 @@ class AxisymmetricField(FieldBalances):
         self.remap_split = NO_SPLIT.copy()
         #: the contact's correction to the kinetic energy of the step (J/rad; the parts of a split node)
         self.kinetic_correction = 0.0
-        #: the grid's own vertical velocity in the laboratory (m/s; set every step by the contact in the pile's
-        #: frame, :meth:`move_with`) and the laboratory elevation of its z = 0 (m)
-        self.frame_velocity = 0.0
-        self.frame_offset = 0.0
-        #: soil that entered through the bottom of a moving grid (kg/rad, scaled by S)
-        self.inflow_mass = 0.0
-        #: the grid's offset at the last refill of the bottom row (m)
-        self.refill_offset = 0.0
-        self._inflow = None
 
     # --- initial state ------------------------------------------------------------------------------------------
     def fill_below(self, surface: float = 0.0) -> None:
@@ -307,8 +298,7 @@ class AxisymmetricField(FieldBalances):
                 if contact is not None:
                     contact.before_remap(self.u_remap)
                 self.remap(self.u_remap)
-                if self._inflow is not None:
-                    self._refill_bottom()
+                self.refill_bottom()
         else:
             self.frame_offset += wz * dt
         t3 = perf_counter()
@@ -348,41 +338,9 @@ class AxisymmetricField(FieldBalances):
         self.capped_volume += capped
         self.remap_count += 1
 
-    # --- the pile's frame ---------------------------------------------------------------------------------
-    def move_with(self) -> None:
-        """Let the grid move vertically with ``frame_velocity`` (the pile's frame, set every step by the
-        contact): the remap advects with the soil's velocity relative to the grid, v − w, and the soil enters
-        through the bottom as the grid descends. The bottom node row keeps the laboratory's fixed base
-        (v = 0): it stands for the far field, at rest, and carries the pile's load. After every remap the
-        bottom cell row is refilled with the soil volume, mass and state (void ratio, intergranular strain)
-        it had at the start, and its stress is moved along the initial vertical gradient by the distance the
-        grid moved (exact for the geostatic part in a uniform layer; the part the load added is kept), so the
-        soil flowing in is undisturbed; the mass it brings in is counted in ``inflow_mass``. Call after the
-        geostatic state is set."""
-        zc = self.grid.zc
-        self._inflow = {
-            "Vs": self.Vs[:, 0].copy(),
-            "mass": self.mass[:, 0].copy(),
-            "state": self.state[:, 0].copy(),
-            "gradient": (self.stress[:, 1] - self.stress[:, 0]) / (zc[1] - zc[0]),
-        }
-        self.refill_offset = self.frame_offset
-
-    def _refill_bottom(self) -> None:
-        ref = self._inflow
-        before = float(self.mass[:, 0].sum())
-        self.Vs[:, 0] = ref["Vs"]
-        self.mass[:, 0] = ref["mass"]
-        self.state[:, 0] = ref["state"]
-        # the row keeps the stress it carries (the pile's load goes down to the fixed bottom nodes through it:
-        # resetting it to the geostatic stress would make the bottom a constant-pressure outlet through which
-        # the loaded soil drains), moved down the geostatic gradient as far as the grid moved since the last
-        # refill
-        self.stress[:, 0] += (self.frame_offset - self.refill_offset) * ref["gradient"]
-        self.refill_offset = self.frame_offset
-        self.inflow_mass += float(self.mass[:, 0].sum()) - before
-        # the lumped masses of the two node rows around the refilled cells (node_mass_rz, on those rows only:
-        # this runs after every remap)
+    def _lump_bottom_rows(self) -> None:
+        """The lumped masses of the two node rows around the refilled bottom cells (:func:`node_mass_rz` on
+        those rows only: this runs after every remap in the pile's frame)."""
         below = np.zeros(self.nmass.shape[0])
         below[:-1] += self.mass[:, 0]
         below[1:] += self.mass[:, 0]
@@ -391,13 +349,6 @@ class AxisymmetricField(FieldBalances):
         above[1:] += self.mass[:, 1]
         self.nmass[:, 0] = 0.25 * below
         self.nmass[:, 1] = 0.25 * (below + above)
-
-    def mass_error(self) -> float:
-        """Relative change of soil mass, counting mass that left through the top as kept and mass that came
-        in through the bottom of a moving grid as added."""
-        if self.initial_mass == 0:
-            return 0.0
-        return (self.soil_mass() + self.lost_mass - self.inflow_mass - self.initial_mass) / self.initial_mass
 
     # --- diagnostics ------------------------------------------------------------------------------------------
     def soil_mass(self) -> float:

@@ -230,11 +230,11 @@ class CartesianBackend(Backend):
             return None
         g = self.field.grid
         i, j, k = np.unravel_index(index, g.shape)
-        return float(g.xc[i]), float(g.yc[j]), float(g.zc[k])
+        return float(g.xc[i]), float(g.yc[j]), float(g.zc[k] + self.field.frame_offset)
 
     def _node_axes(self) -> tuple[np.ndarray, ...]:
         g = self.field.grid
-        return g.x, g.y, g.z
+        return g.x, g.y, g.z + self.field.frame_offset  # (the laboratory's elevations in the pile's frame)
 
     def governing(self) -> tuple[float, dict, int]:
         """Global Δt = min(soil, pile), or the soil's Δt with the pile subcycled (``[solver]
@@ -290,11 +290,14 @@ class CartesianBackend(Backend):
 
     def contact_meta(self) -> list[float] | None:
         c = self.contact
-        return [c.soil_work, c.friction_work, c.moved_volume]
+        return [c.soil_work, c.friction_work, c.moved_volume, *self.field.frame_scalars()]
 
     def apply_contact_meta(self, values: list[float]) -> None:
         c = self.contact
-        c.soil_work, c.friction_work, c.moved_volume = values
+        c.soil_work, c.friction_work, c.moved_volume = values[:3]
+        if len(values) > 3:  # (checkpoints before the 3D pile's frame: a fixed grid)
+            self.field.restore_frame(values[3:7])
+            c.resume_frame()
 
     def history_preamble(self) -> str:
         k = {"quarter": 4, "half": 2}.get(self.symmetry, 1)
@@ -321,9 +324,8 @@ class CartesianBackend(Backend):
 
     def write_fields(self, run_dir: RunDirectory, index: int) -> list[tuple[Path, int]]:
         f = self.field
-        g = f.grid
         soil = write_rectilinear(
-            run_dir.field_path("soil", index), g.x, g.y, g.z, f.cell_fields(), point_data={"velocity": f.v}
+            run_dir.field_path("soil", index), *self._node_axes(), f.cell_fields(), point_data={"velocity": f.v}
         )
         return [(soil, 0)] + (self._write_pile(run_dir, index) if self.pile is not None else [])
 
@@ -384,7 +386,7 @@ class NestedBackend(CartesianBackend):
             return None
         g = self.field.levels[L].grid
         i, j, k = np.unravel_index(index, g.shape)
-        return float(g.xc[i]), float(g.yc[j]), float(g.zc[k])
+        return float(g.xc[i]), float(g.yc[j]), float(g.zc[k] + self.field.frame_offset)
 
     def fastest_node(self) -> tuple[list[int], tuple[float, ...]]:
         best = (-1.0, 0, (0, 0, 0))
@@ -395,7 +397,8 @@ class NestedBackend(CartesianBackend):
                 best = (float(speed[idx]), L, idx)
         _, L, idx = best
         g = self.field.levels[L].grid
-        return [L, *(int(i) for i in idx)], (float(g.x[idx[0]]), float(g.y[idx[1]]), float(g.z[idx[2]]))
+        z = float(g.z[idx[2]] + self.field.frame_offset)
+        return [L, *(int(i) for i in idx)], (float(g.x[idx[0]]), float(g.y[idx[1]]), z)
 
     def governing(self) -> tuple[float, dict, int]:
         dt, gov, substeps = super().governing()
@@ -408,9 +411,8 @@ class NestedBackend(CartesianBackend):
         for L, lvl in enumerate(self.field.levels):
             g = lvl.grid
             path = run_dir.field_path(f"soil_L{L}", index)
-            out.append(
-                (write_rectilinear(path, g.x, g.y, g.z, lvl.cell_fields(), point_data={"velocity": lvl.v}), L)
-            )
+            z = g.z + self.field.frame_offset  # (the laboratory's elevations in the pile's frame)
+            out.append((write_rectilinear(path, g.x, g.y, z, lvl.cell_fields(), point_data={"velocity": lvl.v}), L))
         if self.pile is not None:
             n = len(out)
             for path, part in self._write_pile(run_dir, index):

@@ -96,7 +96,7 @@ class CompositeField(FieldBalances):
         tm = self.timers
         t0 = time.perf_counter()
         if self.contact is not None:
-            self.contact.before_nodes()
+            self.contact.before_nodes(dt)
         sums = np.array(self._nodal_pass(dt))
         if self.contact is not None:
             self.contact.apply(dt)
@@ -112,7 +112,10 @@ class CompositeField(FieldBalances):
         if not (np.isfinite(sums[0]) and np.isfinite(sums[1])):
             raise InstabilityError(*self._diagnose(dt))
         t2 = time.perf_counter()
+        for lvl in self.levels:  # (the pile's frame: every level moves with the grid's velocity)
+            lvl.frame_velocity = self.frame_velocity
         courant = max(lvl.pending_courant(dt) for lvl in self.levels)
+        self.frame_offset = self.levels[0].frame_offset
         runaway = courant > 1.0 and self.settings.remap_courant < np.inf
         if runaway and any(lvl.runaway() for lvl in self.levels):
             raise InstabilityError(*self._diagnose(dt, courant))
@@ -235,15 +238,30 @@ class CompositeField(FieldBalances):
                     )  # fmt: skip
         for lvl in self.levels:
             lvl.u_remap[...] = 0.0
+            lvl.refill_bottom()
             void_ratio_from_density(
                 lvl.active2d, lvl.Vs, lvl.mass, lvl.state, self.grain_density, lvl.hx, lvl.hy, lvl.hz
             )
         if self.contact is not None:
             self.contact.after_remap()
         self.energy["remap_kinetic_loss"] += ke_before - self.kinetic_energy()
+        self.inflow_mass = sum(lvl.inflow_mass for lvl in self.levels)
+        self.refill_offset = self.levels[0].refill_offset
         self.lost_mass += lost
         self.capped_volume += capped
         self.remap_count += 1
+
+    # --- the pile's frame (every level moves with it and refills its own bottom row) ---------------------------
+    def move_with(self) -> None:
+        for lvl in self.levels:
+            lvl.move_with()
+        self.refill_offset = self.frame_offset
+
+    def restore_frame(self, values) -> None:
+        super().restore_frame(values)
+        for L, lvl in enumerate(self.levels):  # (the inflow is counted once, in the composite's mass balance)
+            lvl.restore_frame([self.frame_offset, self.frame_velocity, self.inflow_mass if L == 0 else 0.0,
+                               self.refill_offset])  # fmt: skip
 
     # --- diagnostics ----------------------------------------------------------------------------------------
     def soil_mass(self) -> float:

@@ -92,8 +92,9 @@ def node_spacing(h: np.ndarray) -> np.ndarray:
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def accumulate_displacement(rx, ry, rz, v, dt, u):
-    """u ← u + v Δt at every node. Returns the largest |u_d| r_d over the nodes and directions, with r_d the
+def accumulate_displacement(rx, ry, rz, v, dt, u, wz=0.0):
+    """u ← u + (v − w) Δt at every node, w = (0, 0, ``wz``) the grid's own velocity (the pile's frame; 0 for
+    a fixed grid). Returns the largest |u_d| r_d over the nodes and directions, with r_d the
     reciprocal node spacing (:func:`node_spacing`): the Courant number of the pending remap."""
     n1, n2, n3, _ = v.shape
     cmax = np.empty(n1)  # (np.empty: np.zeros and .max() would be parallel loops of their own, one element per chunk)
@@ -103,7 +104,7 @@ def accumulate_displacement(rx, ry, rz, v, dt, u):
             for k in range(n3):
                 ux = u[i, j, k, 0] + dt * v[i, j, k, 0]
                 uy = u[i, j, k, 1] + dt * v[i, j, k, 1]
-                uz = u[i, j, k, 2] + dt * v[i, j, k, 2]
+                uz = u[i, j, k, 2] + dt * (v[i, j, k, 2] - wz)
                 u[i, j, k, 0] = ux
                 u[i, j, k, 1] = uy
                 u[i, j, k, 2] = uz
@@ -188,6 +189,7 @@ class FieldBalances:
         self.initial_mass = 0.0
         #: accumulated wall time per phase of the step, s
         self.timers: dict[str, float] = dict.fromkeys(("nodes", "cells", "remap", "bookkeeping"), 0.0)
+        self._init_frame()
 
     def book(self, dt: float, sums, dtc: float, arg: int) -> None:
         """Energies, clock and the next Δt (bounded by the growth ratio) after a step."""
@@ -220,10 +222,73 @@ class FieldBalances:
         )
 
     def mass_error(self) -> float:
-        """Relative change of soil mass, counting mass that left through the top as kept."""
+        """Relative change of soil mass, counting mass that left through the top as kept and mass that came
+        in through the bottom of a moving grid (the pile's frame) as added."""
         if self.initial_mass == 0:
             return 0.0
-        return (self.soil_mass() + self.lost_mass - self.initial_mass) / self.initial_mass
+        return (self.soil_mass() + self.lost_mass - self.inflow_mass - self.initial_mass) / self.initial_mass
+
+    # --- the pile's frame (docs/numerics.md, "The pile's frame") ------------------------------------------------
+    def _init_frame(self) -> None:
+        #: the grid's own vertical velocity in the laboratory (m/s; set every step by the contact in the pile's
+        #: frame) and the laboratory elevation of its z = 0 (m)
+        self.frame_velocity = 0.0
+        self.frame_offset = 0.0
+        #: soil that entered through the bottom of a moving grid (kg, per radian in r–z, scaled by S)
+        self.inflow_mass = 0.0
+        #: the grid's offset at the last refill of the bottom row (m)
+        self.refill_offset = 0.0
+        self._inflow = None
+
+    def move_with(self) -> None:
+        """Let the grid move vertically with ``frame_velocity`` (the pile's frame, set every step by the
+        contact): the remap advects with the soil's velocity relative to the grid, v − w, and the soil enters
+        through the bottom as the grid descends. The bottom node row keeps the laboratory's fixed base
+        (v = 0): it stands for the far field, at rest, and carries the pile's load. After every remap the
+        bottom cell row is refilled with the soil volume, mass and state (void ratio, intergranular strain)
+        it had at the start, and its stress is moved along the initial vertical gradient by the distance the
+        grid moved (exact for the geostatic part in a uniform layer; the part the load added is kept), so the
+        soil flowing in is undisturbed; the mass it brings in is counted in ``inflow_mass``. Call after the
+        geostatic state is set. (Arrays with z as the last cell index: the r–z and the 3D fields.)"""
+        zc = self.grid.zc
+        self._inflow = {
+            "Vs": self.Vs[..., 0].copy(),
+            "mass": self.mass[..., 0].copy(),
+            "state": self.state[..., 0, :].copy(),
+            "gradient": (self.stress[..., 1, :] - self.stress[..., 0, :]) / (zc[1] - zc[0]),
+        }
+        self.refill_offset = self.frame_offset
+
+    def refill_bottom(self) -> None:
+        """After a remap in the pile's frame: the bottom cell row as it started (:meth:`move_with`); nothing
+        in a fixed grid."""
+        ref = self._inflow
+        if ref is None:
+            return
+        before = float(self.mass[..., 0].sum())
+        self.Vs[..., 0] = ref["Vs"]
+        self.mass[..., 0] = ref["mass"]
+        self.state[..., 0, :] = ref["state"]
+        # the row keeps the stress it carries (the pile's load goes down to the fixed bottom nodes through it:
+        # resetting it to the geostatic stress would make the bottom a constant-pressure outlet through which
+        # the loaded soil drains), moved down the geostatic gradient as far as the grid moved since the last
+        # refill
+        self.stress[..., 0, :] += (self.frame_offset - self.refill_offset) * ref["gradient"]
+        self.refill_offset = self.frame_offset
+        self.inflow_mass += float(self.mass[..., 0].sum()) - before
+        self._lump_bottom_rows()
+
+    def _lump_bottom_rows(self) -> None:  # pragma: no cover - interface
+        """The lumped nodal masses of the two bottom node rows from the cell masses."""
+        raise NotImplementedError
+
+    def frame_scalars(self) -> list[float]:
+        """The frame's state for a checkpoint (restored by :meth:`restore_frame`)."""
+        return [self.frame_offset, self.frame_velocity, self.inflow_mass, self.refill_offset]
+
+    def restore_frame(self, values) -> None:
+        values = [float(x) for x in values]
+        self.frame_offset, self.frame_velocity, self.inflow_mass, self.refill_offset = values
 
 
 @dataclass
@@ -369,7 +434,7 @@ class SoilField(FieldBalances):
         tm = self.timers
         t0 = time.perf_counter()
         if self.contact is not None:
-            self.contact.before_nodes()
+            self.contact.before_nodes(dt)
         sums = self.nodal_pass(dt)
         if self.contact is not None:
             self.contact.apply(dt)
@@ -465,7 +530,8 @@ class SoilField(FieldBalances):
         comes every step); returns the Courant number of the pending remap."""
         if self.settings.remap_courant <= 0.0:
             self.u_remap[...] = 0.0
-        return accumulate_displacement(*self._node_reciprocal, self.v, dt, self.u_remap)
+        self.frame_offset += self.frame_velocity * dt
+        return accumulate_displacement(*self._node_reciprocal, self.v, dt, self.u_remap, self.frame_velocity)
 
     def runaway(self) -> bool:
         """Whether a node with soil moved more than a cell since the last remap (:func:`runaway_nodes`)."""
@@ -503,6 +569,7 @@ class SoilField(FieldBalances):
             displacement,
         )
         displacement[...] = 0.0
+        self.refill_bottom()
         if self.contact is not None:
             self.contact.after_remap()
         void_ratio_from_density(
@@ -512,6 +579,9 @@ class SoilField(FieldBalances):
         self.lost_mass += lost
         self.capped_volume += capped
         self.remap_count += 1
+
+    def _lump_bottom_rows(self) -> None:
+        node_mass(self.mass, self.active2d, self.nmass, 0, -1, 0, -1, 0, 2)
 
     def _diagnose(self, dt: float, courant: float | None = None) -> tuple[str, dict]:
         """Where and which quantity went non-finite (cell arrays at cell centres, node arrays at nodes);
