@@ -196,9 +196,14 @@ def test_the_base_may_be_a_file_or_a_preset_and_the_fine_zone_follows_the_penetr
     assert s.depths_for(2.0) == [1.0, 2.0]
 
 
-def test_the_example_study_expands_and_validates():
-    s = Study.from_toml(Path(__file__).resolve().parents[1] / "examples" / "sweep_friction.toml")
+def test_the_example_studies_expand_and_validate():
+    examples = Path(__file__).resolve().parents[1] / "examples"
+    s = Study.from_toml(examples / "sweep_friction.toml")
     assert len(s.cases()) == 4 and s.colour_by in s.varied
+    s = Study.from_toml(examples / "sweep_rim.toml")  # (its base is a scenario file beside it)
+    cases = s.cases()
+    assert len(cases) == 12 and {c.scenario.contact.rim for c in cases} == {"base", "corner", "split", "shaft"}
+    assert {c.scenario.loading.penetration for c in cases} == {1.0}
 
 
 def test_the_docs_list_every_column_and_show_the_errors_the_code_gives():

@@ -155,7 +155,7 @@ class Domain(_Table):
         "(the grid moves down with the pile's base, which stays on its node row, and "
         "undisturbed soil flows in through the bottom; soil_depth and fine_depth are then measured below the "
         "base's start, and void_height must hold the penetration plus the heave; experimental in 3D: its q_b "
-        "there is a third of the r–z model's, docs/validation.md)",
+        "there reaches the r–z model's from below only at fine cells, docs/validation.md)",
     )
 
     @model_validator(mode="after")
