@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from geocel.config.materials import Elastic, Hypoplastic
-from geocel.grid import Grid, graded_edges
+from geocel.grid import Grid, graded_edges, graded_z
 from geocel.grid.nested import NestedColumns
 from geocel.solver.composite import CompositeField
 from geocel.solver.field import SoilField, SolverSettings
@@ -482,3 +482,23 @@ def test_a_jacked_pile_in_the_nonlocal_sand_runs_on_nested_columns(tmp_path):
     assert abs(s["soil_mass_error"]) < 1e-12
     assert sim.field.cross_mean is not None
     assert sim.field.levels[0].nonlocal_factor.max() > 1.0
+
+
+@pytest.mark.parametrize("fine_height", [None, 0.05, 0.3, 1.0, 1.55, 2.0])
+def test_void_edges_keep_fine_cells_to_fine_height_then_grow(fine_height):
+    """``[domain] fine_height``: the void above the surface is fine (cells ≤ fine_size, none thinner than
+    0.9 of it) up to fine_height rounded up to whole cells, then grows by at most ``growth`` per cell, capped at
+    max_size, and ends exactly at the void's top; None (or a height within a cell of the top) keeps it all fine."""
+    void, fine, growth, cap = 1.6, 0.1, 1.2, 0.3
+    z = graded_z(2.0, void, fine, 1.0, growth, cap, fine_height)
+    top = z[z > 1e-12]
+    assert 0.0 in z and top[-1] == pytest.approx(void, abs=1e-12)
+    h = np.diff(np.concatenate([[0.0], top]))
+    assert h.min() >= 0.9 * fine and h.max() <= cap * (1 + 1e-9)
+    assert (h[1:] / h[:-1]).max() <= growth * (1 + 1e-9)
+    n = int(np.ceil((void if fine_height is None else fine_height) / fine - 1e-9))
+    if fine_height is None or void - n * fine < fine:
+        assert h.max() <= fine * (1 + 1e-9)
+    else:
+        np.testing.assert_allclose(h[:n], fine)
+        assert h[n] > fine and h.size < void / fine

@@ -33,11 +33,13 @@ E0 = 0.65
 SAND = MohrCoulomb(youngs_modulus=30e6, poisson_ratio=0.3, friction_angle=36.0, dilatancy_angle=6.0)
 
 
-def _field(n=2, void=0.7, scaling=10.0, fine_depth=1.0, settings=None):
-    """Mohr–Coulomb sand in a 2.4 m × 2.5 m container (fine cells a/n to 1.2 m and down to ``fine_depth``)."""
+def _field(n=2, void=0.7, scaling=10.0, fine_depth=1.0, settings=None, fine_height=None):
+    """Mohr–Coulomb sand in a 2.4 m × 2.5 m container (fine cells a/n to 1.2 m, down to ``fine_depth`` and up to
+    ``fine_height``)."""
     h = A / n
     g = AxisymmetricGrid.graded(radius=2.4, soil_depth=2.5, void_height=void, fine_size=h, fine_radius=1.2,
-                                fine_depth=fine_depth, growth=1.3, max_size=0.4)  # fmt: skip
+                                fine_depth=fine_depth, growth=1.3, max_size=0.4,
+                                fine_height=fine_height)  # fmt: skip
     # (remap after every step, as a scenario in the pile's frame does)
     f = AxisymmetricField(g, SAND, scaling=scaling, settings=settings or SolverSettings(remap_courant=0.0))
     f.fill_below(0.0)
@@ -45,14 +47,17 @@ def _field(n=2, void=0.7, scaling=10.0, fine_depth=1.0, settings=None):
     return f
 
 
-def test_a_soil_column_that_the_grid_slides_through_stays_at_rest():
-    """No pile; the grid moves down at 0.5 m/s for 0.6 m (well past a fine cell and into the graded rows). The
+@pytest.mark.parametrize("fine_height", [None, 0.15])
+def test_a_soil_column_that_the_grid_slides_through_stays_at_rest(fine_height):
+    """No pile; the grid moves down at 0.5 m/s for 0.6 m (well past a fine cell and into the graded rows; with
+    ``fine_height`` the surface also rises from one fine row into void rows growing by 1.3 per row). The
     soil must stay at rest in the laboratory: every node slower than 1e-3 of the grid's speed (measured
     1e-4), the vertical stress of every full cell within 0.5 % (of the largest, 2.4 m down) of the geostatic
     stress at its laboratory depth (measured 0.11 %: about 40 Pa everywhere, the weight of the surface cell's
     first-order transport), e unchanged (within 1e-3); and the mass that flowed in equals ρ_d × the layer slid over (per radian
     R²/2 × 0.6 m), with the balance closed to round-off."""
-    f = _field(void=1.0)
+    f = _field(void=1.0, fine_height=fine_height)
+    assert (np.diff(f.grid.z[f.grid.z >= 0.0]) > 1.01 * A / 2).any() == (fine_height is not None)
     s0 = f.stress[..., 2].copy()
     f.move_with()
     f.frame_velocity = w = -0.5

@@ -39,18 +39,21 @@ def _slide(f, w=-0.5, distance=0.5):
     return levels, s0
 
 
-@pytest.mark.parametrize("layout", ["tensor", "nested"])
+@pytest.mark.parametrize("layout", ["tensor", "nested", "graded void"])
 def test_a_soil_column_that_the_3d_grid_slides_through_stays_at_rest(layout):
-    """No pile; the grid moves down at 0.5 m/s for 0.5 m (past two fine cells and into the graded rows). The soil
+    """No pile; the grid moves down at 0.5 m/s for 0.5 m (past two fine cells and into the graded rows; "graded
+    void": the tensor grid with ``fine_height`` one fine cell, so the surface rises into growing void rows). The soil
     must stay at rest in the laboratory: every node slower than 1e-3 of the grid's speed, σ_zz of every full
     cell within 0.5 % (of the largest) of the geostatic stress at its laboratory depth, e unchanged within 1e-3;
     the mass that flowed in is ρ_d × the quarter cylinder slid over (its area: the active columns'), and the
     balance closes to round-off."""
     settings = SolverSettings(remap_courant=0.0)
-    if layout == "tensor":
-        f = SoilField(
-            Grid.graded(2.0, 2.5, 0.8, 0.2, 0.8, 1.0, growth=1.3, max_size=0.5), SAND, 10.0, settings
-        )
+    if layout != "nested":
+        fine_height = 0.2 if layout == "graded void" else None
+        void = 1.2 if fine_height else 0.8
+        g = Grid.graded(2.0, 2.5, void, 0.2, 0.8, 1.0, growth=1.3, max_size=0.5, fine_height=fine_height)
+        assert (g.hz[g.z[:-1] >= 0.0] > 0.21).any() == (fine_height is not None)
+        f = SoilField(g, SAND, 10.0, settings)
     else:
         f = CompositeField(_container(void=0.8), SAND, scaling=10.0, settings=settings)
     levels, s0 = _slide(f)

@@ -191,6 +191,7 @@ def test_defaults_and_optional_tables():
         ("domain", "growth = 3", "[domain].growth = 3"),
         ("domain", "fine_size = 30.0", "[domain].fine_size = 30.0"),
         ("domain", "fine_depth = 40.0", "[domain].fine_depth = 40.0"),
+        ("domain", "fine_height = 0.05", "[domain].fine_height = 0.05: must be ≥ fine_size"),
         ("domain", 'symmetry = "eighth"', '[domain].symmetry = "eighth"'),
         ("initial", "k0 = -1", "[initial].k0 = -1"),
         ("initial", 'intergranular_strain = "full"', "[initial].intergranular_strain"),

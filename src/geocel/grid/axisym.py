@@ -2,8 +2,8 @@
 
 The same 1-D grading as the 3D grid (:func:`geocel.grid.graded.graded_edges`) in r and in z: fine cells
 of ``fine_size`` within ``fine_radius`` of the axis and down to ``fine_depth`` below the surface, growing
-by at most ``growth`` per cell (capped at ``max_size``) outside; the void above the surface has the fine
-size and a node lies exactly on the surface z = 0. The axis is r = 0; the domain reaches ``radius``
+by at most ``growth`` per cell (capped at ``max_size``) outside; the void above the surface is fine up to
+``fine_height`` (all of it by default) and a node lies exactly on the surface z = 0. The axis is r = 0; the domain reaches ``radius``
 (lateral roller) and ``soil_depth`` below the surface (fixed base).
 
 Volumes are **per radian**: a cell between r₀ and r₁ holds V = ½(r₁² − r₀²) h_z = r_c h_r h_z, with
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .graded import graded_edges
+from .graded import graded_edges, graded_z
 
 
 @dataclass
@@ -48,15 +48,12 @@ class AxisymmetricGrid:
         fine_depth: float | None = None,
         growth: float = 1.15,
         max_size: float | None = None,
+        fine_height: float | None = None,
     ) -> AxisymmetricGrid:
         """Graded grid from the ``[domain]`` keys of a scenario (DESIGN.md §1), in m."""
         fine_depth = soil_depth if fine_depth is None else fine_depth
         r = graded_edges(radius, fine_size, fine_radius, growth, max_size)
-        down = graded_edges(soil_depth, fine_size, fine_depth, growth, max_size)
-        z = -down[::-1]
-        if void_height > 0:
-            n_void = max(1, int(np.ceil(void_height / fine_size - 1e-9)))
-            z = np.concatenate([z, np.linspace(0.0, void_height, n_void + 1)[1:]])
+        z = graded_z(soil_depth, void_height, fine_size, fine_depth, growth, max_size, fine_height)
         return cls(r, z)
 
     @classmethod

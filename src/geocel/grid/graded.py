@@ -55,17 +55,37 @@ def graded_edges(
     return out
 
 
+def void_edges(
+    void: float, fine: float, fine_height: float | None, growth: float, max_size: float | None = None
+) -> np.ndarray:
+    """Node heights 0 < z_1 < … = ``void`` above the surface: cells of about ``fine`` (at least one) up to
+    ``fine_height`` (None: the whole void), then growing by ``growth`` (:func:`graded_edges`). The fine part is
+    spread evenly (cells ≤ ``fine``) when fewer than one fine cell would be left to grade, so no thin cell
+    sets the time step."""
+    if void <= 0:
+        return np.zeros(0)
+    n_fine = max(1, int(np.ceil(void / fine - 1e-9)))
+    if fine_height is not None:
+        n = max(1, int(np.ceil(fine_height / fine - 1e-9)))
+        if void - n * fine >= fine * (1.0 - 1e-9):
+            return graded_edges(void, fine, n * fine, growth, max_size)[1:]
+    return np.linspace(0.0, void, n_fine + 1)[1:]
+
+
 def graded_z(
-    depth: float, void: float, fine: float, fine_depth: float, growth: float, max_size: float | None = None
+    depth: float,
+    void: float,
+    fine: float,
+    fine_depth: float,
+    growth: float,
+    max_size: float | None = None,
+    fine_height: float | None = None,
 ) -> np.ndarray:
     """Node z coordinates (m, increasing) of a graded soil column of ``depth`` below the surface z = 0 (fine
-    cells to ``fine_depth``, then growing by ``growth``, :func:`graded_edges`) and the void above it in cells of
-    about ``fine`` (at least one)."""
+    cells to ``fine_depth``, then growing by ``growth``, :func:`graded_edges`) and the void above it
+    (:func:`void_edges`: fine to ``fine_height``, then growing)."""
     z = -graded_edges(depth, fine, fine_depth, growth, max_size)[::-1]
-    if void > 0:
-        n_void = max(1, int(np.ceil(void / fine - 1e-9)))
-        z = np.concatenate([z, np.linspace(0.0, void, n_void + 1)[1:]])
-    return z
+    return np.concatenate([z, void_edges(void, fine, fine_height, growth, max_size)])
 
 
 @dataclass
@@ -116,10 +136,11 @@ class Grid:
         symmetry: str = "quarter",
         cylinder_mask: bool = True,
         max_size: float | None = None,
+        fine_height: float | None = None,
     ) -> Grid:
         """Graded grid (DESIGN.md §1 ``[domain]``): fine cells of size ``fine`` within ``fine_radius`` of the
-        axis and down to ``fine_depth``, growing by ``growth`` outside; the void layer above the surface has
-        the fine size. A node lies exactly on the surface z = 0."""
+        axis and down to ``fine_depth`` (and up to ``fine_height`` in the void above the surface, None: all
+        of it), growing by ``growth`` outside. A node lies exactly on the surface z = 0."""
         fine_depth = depth if fine_depth is None else fine_depth
         r = graded_edges(radius, fine, fine_radius, growth, max_size)
         if symmetry == "quarter":
@@ -131,7 +152,7 @@ class Grid:
             y = x.copy()
         else:
             raise ValueError(f"symmetry = {symmetry!r}: choose one of {SYMMETRIES}")
-        z = graded_z(depth, void, fine, fine_depth, growth, max_size)
+        z = graded_z(depth, void, fine, fine_depth, growth, max_size, fine_height)
         grid = cls(x, y, z, symmetry=symmetry, radius=radius)
         if cylinder_mask:
             xc, yc = np.meshgrid(grid.xc, grid.yc, indexing="ij")

@@ -448,6 +448,7 @@ class AxisymmetricBackend(Backend):
             fine_depth=d.fine_depth,
             growth=d.growth,
             max_size=d.max_size,
+            fine_height=d.fine_height,
         )
         mat = scenario.soil.material
         f = AxisymmetricField(

@@ -80,6 +80,7 @@ def build_grid(scenario: Scenario) -> Grid:
         symmetry=d.symmetry,
         cylinder_mask=d.cylinder_mask,
         max_size=d.max_size,
+        fine_height=d.fine_height,
     )
 
 
@@ -99,7 +100,7 @@ def build_layout(scenario: Scenario) -> NestedColumns:
     ``fine_radius`` (rounded up to whole cells of level 1), ``buffer`` cells of each coarser level around the
     finer, on the graded z edges of the tensor-product grid."""
     d = scenario.domain
-    z = graded_z(d.soil_depth, d.void_height, d.fine_size, d.fine_depth, d.growth, d.max_size)
+    z = graded_z(d.soil_depth, d.void_height, d.fine_size, d.fine_depth, d.growth, d.max_size, d.fine_height)
     return NestedColumns.around_axis(
         d.radius, z, d.fine_size, d.fine_radius, buffer=d.buffer, max_size=d.max_size, symmetry=d.symmetry,
         cylinder_mask=d.cylinder_mask,
