@@ -9,6 +9,7 @@ import json
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 import tomli_w
@@ -204,6 +205,17 @@ def test_the_example_studies_expand_and_validate():
     cases = s.cases()
     assert len(cases) == 12 and {c.scenario.contact.rim for c in cases} == {"base", "corner", "split", "shaft"}
     assert {c.scenario.loading.penetration for c in cases} == {1.0}
+    s = Study.from_toml(examples / "sweep_fine_height.toml")
+    cases = s.cases()
+    assert len(cases) == 4 and {c.scenario.domain.fine_height for c in cases} == {3.6, 1.2, 0.6, 0.3}
+    # 3.6 m is the whole void: the same grid as the default (no fine_height)
+    from geocel.grid.graded import void_edges
+
+    d = cases[0].scenario.domain
+    np.testing.assert_array_equal(
+        void_edges(d.void_height, d.fine_size, d.fine_height, d.growth),
+        void_edges(d.void_height, d.fine_size, None, 1.15),
+    )
 
 
 def test_the_docs_list_every_column_and_show_the_errors_the_code_gives():
