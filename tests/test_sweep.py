@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 
 from _cases import tiny_pile
 from geocel.cli import app
+from geocel.grid.graded import void_edges
 from geocel.sweep import Study, StudyError, expand_range
 
 runner = CliRunner()
@@ -209,8 +210,6 @@ def test_the_example_studies_expand_and_validate():
     cases = s.cases()
     assert len(cases) == 4 and {c.scenario.domain.fine_height for c in cases} == {3.6, 1.2, 0.6, 0.3}
     # 3.6 m is the whole void: the same grid as the default (no fine_height)
-    from geocel.grid.graded import void_edges
-
     d = cases[0].scenario.domain
     np.testing.assert_array_equal(
         void_edges(d.void_height, d.fine_size, d.fine_height, d.growth),

@@ -64,11 +64,11 @@ def void_edges(
     sets the time step."""
     if void <= 0:
         return np.zeros(0)
-    n_fine = max(1, int(np.ceil(void / fine - 1e-9)))
     if fine_height is not None:
         n = max(1, int(np.ceil(fine_height / fine - 1e-9)))
         if void - n * fine >= fine * (1.0 - 1e-9):
             return graded_edges(void, fine, n * fine, growth, max_size)[1:]
+    n_fine = max(1, int(np.ceil(void / fine - 1e-9)))
     return np.linspace(0.0, void, n_fine + 1)[1:]
 
 
