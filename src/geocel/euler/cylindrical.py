@@ -1,0 +1,420 @@
+"""Lagrangian phase of the Eulerian soil step on the cylindrical (r, θ, z) grid (issue 18; experimental).
+
+The central-difference step of :mod:`geocel.euler.lagrange` on the sector cells of
+:class:`geocel.grid.cylindrical.CylindricalGrid`, written so that it **reduces exactly to the r–z step**
+(:mod:`geocel.euler.axisym`, per radian × Δθ) when nothing depends on θ and v_θ = 0:
+
+* **Components.** Node velocities are physical cylindrical components (v_r, v_θ, v_z) in the node's own basis
+  (e_r, e_θ at the node's θ); cell stresses are (rr, θθ, zz, rθ, rz, θz) in the basis at the cell's centre,
+  the soil models' 6-vector (11, 22, 33, 12, 13, 23) with 1 = r, 2 = θ, 3 = z, as in r–z.
+* **Velocity gradient** at the cell centre (one point), with the corners' signs ξ, η, ζ = ±1 in r, θ, z:
+  G_r f = Σ ξ f_I/(4h_r), G_θ f = Σ η f_I/(4 r_c Δθ) (that is (1/r)∂f/∂θ), G_z f = Σ ζ f_I/(4h_z) and the
+  mean M f = Σ f_I/8; L_ab = ∂v_a/∂x_b in cylindrical coordinates:
+  L_rr = G_r v_r, L_rθ = G_θ v_r − M v_θ/r_c, L_rz = G_z v_r,
+  L_θr = G_r v_θ, L_θθ = G_θ v_θ + M v_r/r_c, L_θz = G_z v_θ,
+  L_zr = G_r v_z, L_zθ = G_θ v_z, L_zz = G_z v_z.
+  The terms M v/r_c carry the turning of the basis from one node to the next (the r–z hoop rate is
+  M v_r/r_c). A rigid rotation about the axis (v_θ = ω r) gives D = 0 and the spin ω exactly, a uniform
+  radial expansion D_rr = D_θθ exactly; a rigid translation across the axis leaves a strain rate of order
+  (Δθ)² U/r (the nodes' components of a uniform vector vary as cos θ, which the one-point differences see
+  only to second order).
+* **Nodal forces: the exact transpose** f_I = −V_s ∂(σ:L)/∂v_I, so Σ f·v = −Σ V_s σ:D (energy and momentum
+  balance as in 3D and r–z): f_r = −V_s(σ_rr g_r + σ_rθ g_θ + σ_rz g_z + σ_θθ n),
+  f_θ = −V_s(σ_rθ g_r + σ_θθ g_θ + σ_θz g_z − σ_rθ n), f_z = −V_s(σ_rz g_r + σ_θz g_θ + σ_zz g_z), with
+  g_r = ξ/(4h_r), g_θ = η/(4 r_c Δθ), g_z = ζ/(4h_z), n = 1/(8 r_c). No 1/r survives: stable at the axis.
+* **The axis** (r = 0) is one node per z for all the sectors: the nodes (0, j, k) of every j are the same
+  point, so their masses and forces are summed and they move together (v_r = v_θ = 0 there: the axis of a
+  quarter or half model lies in its symmetry planes).
+* **Hourglass**: the four modes ξη, ηζ, ξζ, ξηζ of the 3D cell (:func:`geocel.euler.lagrange.hourglass_stiffness`,
+  :func:`~geocel.euler.lagrange.mode_limit`) on the cell's local box h_r × r_c Δθ × h_z, in the local
+  components; they are orthogonal to ξ, η, ζ and 1, so the centre gradient does not see them. The mode ξζ is
+  r–z's one (the same stiffness 4GV/h_d², the same bound); the viscous part κ ρ c/(16 √(h_r h_z)) per unit
+  mode velocity is r–z's too.
+* Δt from L_e = :func:`geocel.euler.lagrange.characteristic_length` of that box, with the outer arc r₁Δθ for
+  the ring at the axis (whose inner nodes do not move in r or θ): below the critical step of the assembled
+  operator by 1.2–2 with 1–6 sectors per quarter (tests/test_cylindrical.py; with r_c Δθ there, by 2.2–3.1);
+  bulk viscosity on tr L.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..materials.flags import SUBSTEP_LIMIT
+from ..materials.kernels import cell_update
+from ..materials.tensor import KERNEL_OPTIONS
+from .lagrange import (
+    G_FROM_M,
+    MAX_CELL_SUBSTEPS,
+    PHI_MIN,
+    characteristic_length,
+    column_sums,
+    hourglass_stiffness,
+    mode_limit,
+    strength_reserve,
+    substeps,
+)
+
+#: components of the hourglass control kept after the material state (4 modes × 3 directions, Pa)
+HOURGLASS_STATE_CYL = 12
+#: per-cell force factors of :func:`cell_force_factors_cyl`
+FORCE_FACTORS_CYL = 27
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def node_mass_cyl(mass, out):
+    """Lumped nodal mass: an eighth of each adjacent cell's mass; the axis nodes (0, j, k) of every j hold the
+    sum over j (they are one node)."""
+    nr, nt, nz = mass.shape
+    for i in prange(nr + 1):
+        for j in range(nt + 1):
+            for k in range(nz + 1):
+                s = 0.0
+                for ci in range(max(i - 1, 0), min(i + 1, nr)):
+                    for cj in range(max(j - 1, 0), min(j + 1, nt)):
+                        for ck in range(max(k - 1, 0), min(k + 1, nz)):
+                            s += mass[ci, cj, ck]
+                out[i, j, k] = 0.125 * s
+    for k in range(nz + 1):
+        s = 0.0
+        for j in range(nt + 1):
+            s += out[0, j, k]
+        for j in range(nt + 1):
+            out[0, j, k] = s
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def cell_force_factors_cyl(ci, cj, ck, gr_, gt_, gz_, nn_, Vs, mass, stress, q, hg, out):
+    """The corner-independent factors of cell (ci, cj, ck)'s nodal forces into ``out`` (27); ``gr_`` = 1/(4h_r),
+    ``gt_`` = 1/(4 r_c Δθ), ``nn_`` = 1/(8 r_c) per ring, ``gz_`` = 1/(4h_z) per row. With the corner's signs
+    ξ, η, ζ: f_σ = −(ξF0 + ηF1 + ζF2 + F3, ξF4 + ηF5 + ζF6 + F7, ξF8 + ηF9 + ζF10), f_q = (ξF11 + F12, ηF13,
+    ζF14), f_hg,d = −(ξη F[15+d] + ηζ F[18+d] + ξζ F[21+d] + ξηζ F[24+d])."""
+    vs = Vs[ci, cj, ck]
+    gr = gr_[ci]
+    gt = gt_[ci]
+    nn = nn_[ci]
+    gz = gz_[ck]
+    s = stress[ci, cj, ck]
+    srt = s[3]
+    srz = s[4]
+    stz = s[5]
+    out[0] = vs * s[0] * gr
+    out[1] = vs * srt * gt
+    out[2] = vs * srz * gz
+    out[3] = vs * s[1] * nn
+    out[4] = vs * srt * gr
+    out[5] = vs * s[1] * gt
+    out[6] = vs * stz * gz
+    out[7] = -vs * srt * nn
+    out[8] = vs * srz * gr
+    out[9] = vs * stz * gt
+    out[10] = vs * s[2] * gz
+    pq = vs * q[ci, cj, ck]
+    out[11] = pq * gr
+    out[12] = pq * nn
+    out[13] = pq * gt
+    out[14] = pq * gz
+    mc = mass[ci, cj, ck]
+    for a in range(4):
+        for d in range(3):
+            out[15 + 3 * a + d] = mc * hg[ci, cj, ck, a, d]
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def gather_node_force_cyl(i, j, k, cf, nr, nt, nz):
+    """Stress, viscous and hourglass forces on node (i, j, k) from its ≤ 8 cells' factors ``cf``, one flat
+    9-tuple (f_σ, f_q, f_hg)."""
+    fs0 = 0.0
+    fs1 = 0.0
+    fs2 = 0.0
+    fq0 = 0.0
+    fq1 = 0.0
+    fq2 = 0.0
+    fh0 = 0.0
+    fh1 = 0.0
+    fh2 = 0.0
+    for ci in range(max(i - 1, 0), min(i + 1, nr)):
+        xi = 1.0 if ci < i else -1.0
+        for cj in range(max(j - 1, 0), min(j + 1, nt)):
+            eta = 1.0 if cj < j else -1.0
+            for ck in range(max(k - 1, 0), min(k + 1, nz)):
+                zeta = 1.0 if ck < k else -1.0
+                c = cf[ci, cj, ck]
+                fs0 -= xi * c[0] + eta * c[1] + zeta * c[2] + c[3]
+                fs1 -= xi * c[4] + eta * c[5] + zeta * c[6] + c[7]
+                fs2 -= xi * c[8] + eta * c[9] + zeta * c[10]
+                fq0 += xi * c[11] + c[12]
+                fq1 += eta * c[13]
+                fq2 += zeta * c[14]
+                h1 = xi * eta
+                h2 = eta * zeta
+                h3 = xi * zeta
+                h4 = h1 * zeta
+                fh0 -= h1 * c[15] + h2 * c[18] + h3 * c[21] + h4 * c[24]
+                fh1 -= h1 * c[16] + h2 * c[19] + h3 * c[22] + h4 * c[25]
+                fh2 -= h1 * c[17] + h2 * c[20] + h3 * c[23] + h4 * c[26]
+    return (fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2)
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def _advance(m, o, f, fx, fix, vfix, gz_force, a_half, dt):
+    """One node's update of component-wise forces: returns (new velocity, reaction) of one component."""
+    c = dt / m
+    v = ((1.0 - a_half) * o + c * (f + fx + gz_force)) / (1.0 + a_half)
+    r = 0.0
+    if fix:
+        r = (vfix - v) / c
+        v = vfix
+    return v, r
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def advance_nodes_cyl(
+    hr, hz, rc, dth, Vs, mass, stress, q, hg, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt, mtiny,
+    work,
+):  # fmt: skip
+    """v ← v + Δt f/m with stress, viscous, hourglass, gravity and external forces (N, local components); then
+    the boundary conditions (fixed components take ``vfix``, their reaction m (v − v_free)/Δt goes to
+    ``reaction``). ``damping`` α (1/s): the mass-proportional force −α m v̄ (dynamic relaxation), as in
+    :func:`geocel.euler.axisym.advance_nodes_rz`. The axis nodes (0, j, k) of every j are one node (module
+    docstring): forces summed over j, one update, the same velocity written to every j, the energies and the
+    z-reaction counted once (at j = 0). ``work``: scratch (nr, nθ, nz, :data:`FORCE_FACTORS_CYL`).
+
+    Returns (kinetic energy, work of the stresses, viscous dissipation, hourglass dissipation, work of gravity,
+    work of the external forces and reactions), J, as the 3D and r–z kernels."""
+    nr, nt, nz = Vs.shape
+    cf = work
+    gr_ = 0.25 / hr
+    gt_ = 0.25 / (rc * dth)
+    nn_ = 0.125 / rc
+    gz_ = 0.25 / hz
+    for cij in prange(nr * nt):
+        ci = cij // nt
+        cj = cij % nt
+        for ck in range(nz):
+            cell_force_factors_cyl(ci, cj, ck, gr_, gt_, gz_, nn_, Vs, mass, stress, q, hg, cf[ci, cj, ck])
+    acc = np.empty((nr + 1, 6))
+    a_half = 0.5 * damping * dt
+    for i in prange(nr + 1):
+        ke = 0.0
+        wi = 0.0
+        wv = 0.0
+        wh = 0.0
+        wg = 0.0
+        wx = 0.0
+        jn = nt + 1 if i > 0 else 1  # the axis: one node per row
+        for j in range(jn):
+            for k in range(nz + 1):
+                m = nmass[i, j, k]
+                if i == 0:
+                    g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+                    for jj in range(nt + 1):
+                        h = gather_node_force_cyl(i, jj, k, cf, nr, nt, nz)
+                        g = (g[0] + h[0], g[1] + h[1], g[2] + h[2], g[3] + h[3], g[4] + h[4], g[5] + h[5],
+                             g[6] + h[6], g[7] + h[7], g[8] + h[8])  # fmt: skip
+                else:
+                    g = gather_node_force_cyl(i, j, k, cf, nr, nt, nz)
+                if m <= mtiny:
+                    for d in range(3):
+                        v[i, j, k, d] = vfix[i, j, k, d] if fix[i, j, k, d] else 0.0
+                        reaction[i, j, k, d] = 0.0
+                    if i == 0:
+                        for jj in range(1, nt + 1):
+                            for d in range(3):
+                                v[0, jj, k, d] = v[0, 0, k, d]
+                                reaction[0, jj, k, d] = 0.0
+                    continue
+                fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2 = g
+                fgz = -m * gravity
+                o0 = v[i, j, k, 0]
+                o1 = v[i, j, k, 1]
+                o2 = v[i, j, k, 2]
+                x0 = fext[i, j, k, 0]
+                x1 = fext[i, j, k, 1]
+                x2 = fext[i, j, k, 2]
+                v0, r0 = _advance(m, o0, fs0 + fq0 + fh0, x0, fix[i, j, k, 0], vfix[i, j, k, 0], 0.0, a_half, dt)
+                v1, r1 = _advance(m, o1, fs1 + fq1 + fh1, x1, fix[i, j, k, 1], vfix[i, j, k, 1], 0.0, a_half, dt)
+                v2, r2 = _advance(m, o2, fs2 + fq2 + fh2, x2, fix[i, j, k, 2], vfix[i, j, k, 2], fgz, a_half, dt)
+                v[i, j, k, 0] = v0
+                v[i, j, k, 1] = v1
+                v[i, j, k, 2] = v2
+                reaction[i, j, k, 0] = r0
+                reaction[i, j, k, 1] = r1
+                reaction[i, j, k, 2] = r2
+                if i == 0:
+                    for jj in range(1, nt + 1):
+                        v[0, jj, k, 0] = v0
+                        v[0, jj, k, 1] = v1
+                        v[0, jj, k, 2] = v2
+                        reaction[0, jj, k, 0] = 0.0
+                        reaction[0, jj, k, 1] = 0.0
+                        reaction[0, jj, k, 2] = 0.0
+                m0 = 0.5 * (o0 + v0)
+                m1 = 0.5 * (o1 + v1)
+                m2 = 0.5 * (o2 + v2)
+                mm = m0 * m0 + m1 * m1 + m2 * m2
+                ke += 0.5 * m * mm
+                wi -= (fs0 * m0 + fs1 * m1 + fs2 * m2) * dt
+                wv -= (fq0 * m0 + fq1 * m1 + fq2 * m2) * dt
+                wv += damping * m * mm * dt
+                wh -= (fh0 * m0 + fh1 * m1 + fh2 * m2) * dt
+                wg += fgz * m2 * dt
+                wx += ((x0 + r0) * m0 + (x1 + r1) * m1 + (x2 + r2) * m2) * dt
+        acc[i, 0] = ke
+        acc[i, 1] = wi
+        acc[i, 2] = wv
+        acc[i, 3] = wh
+        acc[i, 4] = wg
+        acc[i, 5] = wx
+    t = column_sums(acc)
+    return t[0], t[1], t[2], t[3], t[4], t[5]
+
+
+@njit(**KERNEL_OPTIONS)
+def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz):
+    """Velocity gradient L (9-tuple, row-major L_ab, a, b ∈ r, θ, z) at the centre of cell (i, j, k) (module
+    docstring) and the hourglass amplitudes q_α = Σ h_αI v_I (α = ξη, ηζ, ξζ, ξηζ; 4 × 3 as a 12-tuple)."""
+    sr = (0.0, 0.0, 0.0)
+    st = (0.0, 0.0, 0.0)
+    sz = (0.0, 0.0, 0.0)
+    sm = (0.0, 0.0, 0.0)
+    q1 = (0.0, 0.0, 0.0)
+    q2 = (0.0, 0.0, 0.0)
+    q3 = (0.0, 0.0, 0.0)
+    q4 = (0.0, 0.0, 0.0)
+    for a in range(2):
+        xi = 2.0 * a - 1.0
+        for b in range(2):
+            eta = 2.0 * b - 1.0
+            for c in range(2):
+                zeta = 2.0 * c - 1.0
+                v0 = v[i + a, j + b, k + c, 0]
+                v1 = v[i + a, j + b, k + c, 1]
+                v2 = v[i + a, j + b, k + c, 2]
+                sr = (sr[0] + xi * v0, sr[1] + xi * v1, sr[2] + xi * v2)
+                st = (st[0] + eta * v0, st[1] + eta * v1, st[2] + eta * v2)
+                sz = (sz[0] + zeta * v0, sz[1] + zeta * v1, sz[2] + zeta * v2)
+                sm = (sm[0] + v0, sm[1] + v1, sm[2] + v2)
+                h1 = xi * eta
+                h2 = eta * zeta
+                h3 = xi * zeta
+                h4 = h1 * zeta
+                q1 = (q1[0] + h1 * v0, q1[1] + h1 * v1, q1[2] + h1 * v2)
+                q2 = (q2[0] + h2 * v0, q2[1] + h2 * v1, q2[2] + h2 * v2)
+                q3 = (q3[0] + h3 * v0, q3[1] + h3 * v1, q3[2] + h3 * v2)
+                q4 = (q4[0] + h4 * v0, q4[1] + h4 * v1, q4[2] + h4 * v2)
+    gr = 0.25 / hr
+    gt = 0.25 / (rc * dth)
+    gz = 0.25 / hz
+    nn = 0.125 / rc
+    L = (
+        sr[0] * gr,
+        st[0] * gt - sm[1] * nn,
+        sz[0] * gz,
+        sr[1] * gr,
+        st[1] * gt + sm[0] * nn,
+        sz[1] * gz,
+        sr[2] * gr,
+        st[2] * gt,
+        sz[2] * gz,
+    )
+    return L, (q1[0], q1[1], q1[2], q2[0], q2[1], q2[2], q3[0], q3[1], q3[2], q4[0], q4[1], q4[2])
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def update_cells_cyl(
+    tag, prm, rc, hr, dth, hz, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s, hoff,
+    mf, cf, max_sub,
+):  # fmt: skip
+    """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (D and W from
+    :func:`velocity_gradient_cyl`), the bulk-viscosity pressure q and the hourglass resistance for the next
+    nodal pass, as :func:`geocel.euler.lagrange.update_cells` on the cell's local box h_r × r_c Δθ × h_z
+    (module docstring). ``state[..., hoff:hoff + 12]`` holds the hourglass generalised stresses (Pa). Returns
+    (stable Δt of the cells, flat index of the cell governing it)."""
+    nr, nt, nz = Vs.shape
+    n = nr * nt * nz
+    s2 = stress.reshape((n, 6))
+    st2 = state.reshape((n, state.shape[3]))
+    nchunk = nr * nt
+    dts = np.full(nchunk, np.inf)
+    args = np.zeros(nchunk, dtype=np.int64)
+    for cij in prange(nchunk):
+        i = cij // nt
+        j = cij % nt
+        dbuf = np.empty(6)
+        wbuf = np.empty(3)
+        best = np.inf
+        best_c = -1
+        h_r = hr[i]
+        r_c = rc[i]
+        h_t = r_c * dth
+        for k in range(nz):
+            c = cij * nz + k
+            h_z = hz[k]
+            vol = h_r * h_t * h_z
+            vs = Vs[i, j, k]
+            if vs < PHI_MIN * vol:
+                for d in range(6):
+                    stress[i, j, k, d] = 0.0
+                q[i, j, k] = 0.0
+                for a in range(4):
+                    for d in range(3):
+                        hg[i, j, k, a, d] = 0.0
+                        st2[c, hoff + 3 * a + d] = 0.0
+                flags[i, j, k] = 0
+                continue
+            L, qh = velocity_gradient_cyl(v, i, j, k, h_r, r_c, dth, h_z)
+            D = (
+                L[0] * dt,
+                L[4] * dt,
+                L[8] * dt,
+                0.5 * (L[1] + L[3]) * dt,
+                0.5 * (L[2] + L[6]) * dt,
+                0.5 * (L[5] + L[7]) * dt,
+            )
+            W = (0.5 * (L[1] - L[3]) * dt, 0.5 * (L[2] - L[6]) * dt, 0.5 * (L[5] - L[7]) * dt)
+            nsub = substeps(D, max_sub)
+            M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, 1.0, dbuf, wbuf)
+            if nsub == MAX_CELL_SUBSTEPS:
+                f |= SUBSTEP_LIMIT
+            flags[i, j, k] = f
+            modulus[i, j, k] = M
+            rho = mass[i, j, k] / vs
+            cd = np.sqrt(M / rho)
+            le = characteristic_length(h_r, h_t if i > 0 else 2.0 * h_t, h_z)  # (the axis ring: its outer arc)
+            tr = L[0] + L[4] + L[8]
+            qn = -b1 * rho * cd * le * tr
+            if tr < 0.0:
+                qn += rho * (b2 * le * tr) ** 2
+            q[i, j, k] = qn
+            gt = G_FROM_M * M
+            chg = kappa * cd / (16.0 * np.sqrt(h_r * h_z))  # r–z's viscous part (module docstring)
+            kfac = kappa_s * gt * dt / 64.0
+            hcell = (h_r, h_t, h_z)
+            inv = (4.0 / (h_r * h_r), 4.0 / (h_t * h_t), 4.0 / (h_z * h_z))
+            reserve = strength_reserve(s2, c, mf, cf)
+            for a in range(4):
+                for d in range(3):
+                    sq = st2[c, hoff + 3 * a + d]
+                    sq += kfac * hourglass_stiffness(a, d, inv) * qh[3 * a + d]
+                    fac = (36.0 if a == 3 else 12.0) * hcell[d]
+                    lim = mode_limit(s2, c, a, d, hcell, mf, reserve) / fac
+                    sq = min(max(sq, -lim), lim)
+                    st2[c, hoff + 3 * a + d] = sq
+                    hg[i, j, k, a, d] = chg * qh[3 * a + d] + sq / rho
+            vmax = np.sqrt(L[0] ** 2 + L[4] ** 2 + L[8] ** 2) * le
+            xi_b = b1 - b2 * b2 * le * min(tr, 0.0) / max(cd, 1e-30)
+            dtc = le / (cd * (np.sqrt(1.0 + xi_b * xi_b) + xi_b) + vmax)
+            if dtc < best:
+                best = dtc
+                best_c = c
+        dts[cij] = best
+        args[cij] = best_c
+    dt_min = np.inf
+    arg = -1
+    for ch in range(nchunk):
+        if dts[ch] < dt_min:
+            dt_min = dts[ch]
+            arg = args[ch]
+    return dt_min, arg

@@ -1,0 +1,140 @@
+"""Cylindrical (r, θ, z) grid of 8-node sector cells: a 3D Eulerian grid that fits a pile on the axis (issue 18,
+the cylindrical layout; experimental, first increment).
+
+The r–z grid (:class:`geocel.grid.axisym.AxisymmetricGrid`: graded r and z edges, the pile's radius on a node
+ring, the axis r = 0) turned through the model's angle (a quarter, a half: the symmetry planes θ = 0 and
+θ = Θ) in ``n_theta`` equal sectors. A cell is the sector r₀…r₁, θ₀…θ₁, z₀…z₁; its volume is exact,
+V = r_c h_r Δθ h_z (m³, not per radian: everything extensive in the cylindrical field is for the modelled
+sector of the body). Why this layout: the pile's shaft is a node ring and its base a node row, as in r–z, so
+the r–z model's treatment of the base's rim carries over to 3D, which a Cartesian grid whose cells the circle
+cuts cannot give (docs/validation.md, "The 3D model in the pile's frame").
+
+Not yet here: fewer sectors towards the axis (the arc r_c Δθ of the ring next to the axis sets the stable Δt),
+the full circle, the remap, contact and the scenario keys.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .axisym import AxisymmetricGrid
+
+#: the model's angle per ``extent`` (rad): the symmetry planes are θ = 0 and θ = this
+EXTENTS = {"quarter": 0.5 * math.pi, "half": math.pi}
+
+
+@dataclass
+class CylindricalGrid:
+    """Node coordinates r (nr+1, r[0] = 0), θ (nθ+1, uniform from 0 to the extent's angle) and z (nz+1)."""
+
+    r: np.ndarray
+    theta: np.ndarray
+    z: np.ndarray
+
+    def __post_init__(self) -> None:
+        rz = AxisymmetricGrid(self.r, self.z)  # checks r and z
+        self.r, self.z = rz.r, rz.z
+        self.theta = np.ascontiguousarray(self.theta, dtype=float)
+        d = np.diff(self.theta)
+        if self.theta.ndim != 1 or self.theta.size < 2 or self.theta[0] != 0.0 or np.any(d <= 0):
+            raise ValueError("θ must be an increasing 1-D array of ≥ 2 nodes from 0")
+        if not np.allclose(d, d[0], rtol=1e-12, atol=0.0):
+            raise ValueError("the sectors must be equal (uniform θ)")
+        if self.theta[-1] > math.pi * (1.0 + 1e-12):
+            raise ValueError(f"θ reaches {self.theta[-1]:.4g} rad: a half model (π) at most for now")
+
+    @classmethod
+    def from_axisymmetric(
+        cls, g: AxisymmetricGrid, n_theta: int, extent: str = "quarter"
+    ) -> CylindricalGrid:
+        """The r–z grid ``g`` turned through the ``extent``'s angle in ``n_theta`` sectors."""
+        if extent not in EXTENTS:
+            raise ValueError(f"extent must be one of {sorted(EXTENTS)}, got {extent!r}")
+        if int(n_theta) != n_theta or n_theta < 1:
+            raise ValueError(f"n_theta must be a positive integer, got {n_theta!r}")
+        return cls(g.r.copy(), np.linspace(0.0, EXTENTS[extent], int(n_theta) + 1), g.z.copy())
+
+    # --- geometry --------------------------------------------------------------------------------------------
+    @property
+    def nr(self) -> int:
+        return self.r.size - 1
+
+    @property
+    def ntheta(self) -> int:
+        return self.theta.size - 1
+
+    @property
+    def nz(self) -> int:
+        return self.z.size - 1
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return (self.nr, self.ntheta, self.nz)
+
+    @property
+    def n_cells(self) -> int:
+        return self.nr * self.ntheta * self.nz
+
+    @property
+    def hr(self) -> np.ndarray:
+        return np.diff(self.r)
+
+    @property
+    def hz(self) -> np.ndarray:
+        return np.diff(self.z)
+
+    @property
+    def rc(self) -> np.ndarray:
+        return 0.5 * (self.r[1:] + self.r[:-1])
+
+    @property
+    def zc(self) -> np.ndarray:
+        return 0.5 * (self.z[1:] + self.z[:-1])
+
+    @property
+    def dtheta(self) -> float:
+        """Δθ of every sector (rad)."""
+        return float(self.theta[1] - self.theta[0])
+
+    @property
+    def angle(self) -> float:
+        """The model's angle Θ (rad)."""
+        return float(self.theta[-1])
+
+    def axisymmetric(self) -> AxisymmetricGrid:
+        """The r–z grid this one turns."""
+        return AxisymmetricGrid(self.r, self.z)
+
+    def cell_volumes(self) -> np.ndarray:
+        """Exact sector volumes r_c h_r Δθ h_z, (nr, nθ, nz), m³."""
+        v = (self.rc * self.hr * self.dtheta)[:, None] * self.hz[None, :]
+        return np.ascontiguousarray(np.broadcast_to(v[:, None, :], self.shape))
+
+    def smallest_length(self) -> float:
+        """The length that sets the stable Δt where it is shortest: h_r, h_z, the arc r_c Δθ of a ring or the
+        outer arc r₁Δθ of the ring at the axis (m)."""
+        arcs = self.rc * self.dtheta
+        arcs[0] = self.r[1] * self.dtheta
+        return float(min(self.hr.min(), self.hz.min(), arcs.min()))
+
+    def describe(self) -> str:
+        return (
+            f"cylindrical grid {self.nr}×{self.ntheta}×{self.nz} = {self.n_cells} cells over "
+            f"{math.degrees(self.angle):.0f}°; shortest edge {self.smallest_length():.4g} m; "
+            f"r ∈ [0, {self.r[-1]:.3g}], z ∈ [{self.z[0]:.3g}, {self.z[-1]:.3g}] m"
+        )
+
+    def node_constraints(self) -> np.ndarray:
+        """Per-node fixed velocity components (v_r, v_θ, v_z), (nr+1, nθ+1, nz+1, 3) uint8: the axis (v_r = v_θ = 0
+        at r = 0: a quarter or half model's axis lies in its symmetry planes), the symmetry planes (v_θ = 0 at
+        θ = 0 and θ = Θ), the lateral roller (v_r = 0 at r = radius) and the fixed base (all three)."""
+        fix = np.zeros((self.nr + 1, self.ntheta + 1, self.nz + 1, 3), dtype=np.uint8)
+        fix[0, :, :, 0:2] = 1
+        fix[:, 0, :, 1] = 1
+        fix[:, -1, :, 1] = 1
+        fix[-1, :, :, 0] = 1
+        fix[:, :, 0, :] = 1
+        return fix
