@@ -1,13 +1,13 @@
 """The Eulerian soil field on the cylindrical (r, θ, z) grid: arrays, geostatic state, MGS, one step (issue 18,
-the cylindrical layout; experimental, first increment: the Lagrangian phase).
+the cylindrical layout; experimental: the soil step with its remap, no pile yet).
 
 A standalone driver as :class:`geocel.solver.axisym_field.AxisymmetricField` was at first: the same settings,
-soil models and MGS; the kernels are :mod:`geocel.euler.cylindrical`. Everything extensive is for the modelled
+soil models, MGS and deferred remap (``remap_courant``; ``np.inf`` keeps the material on its grid, a small-strain
+analysis); the kernels are :mod:`geocel.euler.cylindrical` and :mod:`geocel.euler.cylindrical_remap`. Everything extensive is for the modelled
 sector (m³, kg, N, J; × 4 for a quarter model's whole body). Node arrays are (nr+1, nθ+1, nz+1[, 3]) with
 components (r, θ, z) in the node's basis; cell arrays (nr, nθ, nz[, k]); stresses (rr, θθ, zz, rθ, rz, θz).
 
-Not yet here (hence ``remap_courant = inf`` only: the material stays on its grid, a small-strain analysis):
-the remap, contact, the pile's frame, the non-local sand, fewer sectors towards the axis.
+Not yet here: contact, the pile's frame, the non-local sand, fewer sectors towards the axis.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from time import perf_counter
 
 import numpy as np
+from numba import njit
 
 from ..euler.cylindrical import (
     FORCE_FACTORS_CYL,
@@ -25,10 +26,53 @@ from ..euler.cylindrical import (
     node_mass_cyl,
     update_cells_cyl,
 )
+from ..euler.cylindrical_remap import remap_cyl, tensor_offsets
 from ..euler.lagrange import PHI_MIN, characteristic_length
 from ..grid.cylindrical import CylindricalGrid
 from ..materials.kernels import update_cells as material_update_cells
-from .field import FieldBalances, InstabilityError, Material, SolverSettings
+from ..materials.tensor import KERNEL_OPTIONS
+from .field import E_MAX, E_MIN, FieldBalances, InstabilityError, Material, SolverSettings, node_spacing
+
+
+@njit(**KERNEL_OPTIONS)
+def _accumulate_cyl(rr, rt, rz, v, dt, u):
+    """u ← u + v Δt at every node; returns the largest |u_d| / spacing (the pending remap's Courant number)."""
+    n1, n2, n3, _ = v.shape
+    c = 0.0
+    for i in range(n1):
+        for j in range(n2):
+            for k in range(n3):
+                a = u[i, j, k, 0] + dt * v[i, j, k, 0]
+                b = u[i, j, k, 1] + dt * v[i, j, k, 1]
+                w = u[i, j, k, 2] + dt * v[i, j, k, 2]
+                u[i, j, k, 0] = a
+                u[i, j, k, 1] = b
+                u[i, j, k, 2] = w
+                c = max(c, abs(a) * rr[i], abs(b) * rt[i], abs(w) * rz[k])
+    return c
+
+
+@njit(**KERNEL_OPTIONS)
+def _void_ratio_cyl(Vs, volume, mass, state, grain_density):
+    """e = ρ_s V_s/m − 1 in every soil cell (after a remap, which carries mass and soil volume, not e)."""
+    n1, n2, n3 = Vs.shape
+    for i in range(n1):
+        for j in range(n2):
+            for k in range(n3):
+                if Vs[i, j, k] > PHI_MIN * volume[i, j, k] and mass[i, j, k] > 0.0:
+                    state[i, j, k, 0] = grain_density * Vs[i, j, k] / mass[i, j, k] - 1.0
+
+
+@njit(**KERNEL_OPTIONS)
+def _kinetic_energy_cyl(nmass, v):
+    """½ Σ m |v|² over the nodes, the axis node once (J)."""
+    n1, n2, n3 = nmass.shape
+    s = 0.0
+    for i in range(n1):
+        for j in range(n2 if i > 0 else 1):
+            for k in range(n3):
+                s += nmass[i, j, k] * (v[i, j, k, 0] ** 2 + v[i, j, k, 1] ** 2 + v[i, j, k, 2] ** 2)
+    return 0.5 * s
 
 
 @dataclass
@@ -43,14 +87,10 @@ class CylindricalField(FieldBalances):
     grid: CylindricalGrid
     material: Material
     scaling: float = 1.0
-    settings: SolverSettings = field(default_factory=lambda: SolverSettings(remap_courant=math.inf))
+    settings: SolverSettings = field(default_factory=SolverSettings)
     damping: float = 0.0
 
     def __post_init__(self) -> None:
-        if self.settings.remap_courant < math.inf:
-            raise NotImplementedError(
-                "the cylindrical grid has no remap yet: use SolverSettings(remap_courant=inf) (small strain)"
-            )
         g = self.grid
         self._init_material()
         shape = g.shape
@@ -74,6 +114,15 @@ class CylindricalField(FieldBalances):
         self.external_force = np.zeros(nshape + (3,))
         self.reaction = np.zeros(nshape + (3,))
         self._force_factors = np.empty(shape + (FORCE_FACTORS_CYL,))
+        self.Vcur = self.volume.copy()
+        self.fbar = np.zeros(shape)
+        self.u_remap = np.zeros(nshape + (3,))
+        self._remap_work: dict = {}
+        # the reciprocal node spacings of the pending remap's Courant number: h_r, the arc r Δθ (r₁Δθ at the
+        # axis), h_z
+        arcs = np.maximum(g.r, g.r[1]) * g.dtheta
+        self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / arcs, 1.0 / node_spacing(g.hz))
+        self._state_tensors = tensor_offsets(self.material.state_names[1:])
         self._init_bookkeeping()
 
     # --- initial state ------------------------------------------------------------------------------------------
@@ -156,7 +205,8 @@ class CylindricalField(FieldBalances):
 
     # --- the explicit step ----------------------------------------------------------------------------------
     def step(self, dt: float | None = None) -> None:
-        """One explicit step (the Lagrangian phase; no remap yet)."""
+        """One explicit step: the Lagrangian phase, then the remap when the accumulated node displacements reach
+        ``remap_courant`` of a cell (every step with 0, never with ``np.inf``)."""
         st = self.settings
         dt = self.dt if dt is None else dt
         t0 = perf_counter()
@@ -178,6 +228,20 @@ class CylindricalField(FieldBalances):
                 {"step": self.step_count, "time": self.time, "dt": dt, "quantity": "kinetic_energy"},
             )
         t2 = perf_counter()
+        rc_ = st.remap_courant
+        if rc_ < math.inf:
+            if rc_ <= 0.0:
+                self.u_remap[...] = 0.0
+            courant = _accumulate_cyl(*self._node_reciprocal, self.v, dt, self.u_remap)
+            if courant > 1.0:
+                raise InstabilityError(
+                    f"cylindrical step {self.step_count}: a node moved {courant:.3g} cells in one remap interval "
+                    f"(Δt = {dt:.3g} s)",
+                    {"step": self.step_count, "time": self.time, "dt": dt, "quantity": "courant", "courant": courant},
+                )
+            if rc_ <= 0.0 or courant >= rc_:
+                self.remap(self.u_remap)
+        t3 = perf_counter()
         e = self.energy
         e["kinetic"] = ke
         e["internal"] += dEi
@@ -194,6 +258,23 @@ class CylindricalField(FieldBalances):
         tm = self.timers
         tm["nodes"] += t1 - t0
         tm["cells"] += t2 - t1
+        tm["remap"] += t3 - t2
+
+    def remap(self, displacement: np.ndarray) -> None:
+        """Remap with the mesh motion ``displacement`` (m, then reset); e is recomputed from the density."""
+        ke_before = _kinetic_energy_cyl(self.nmass, self.v)
+        lost, capped = remap_cyl(
+            self.grid.r, self.dtheta, self.hz, self.v, self.Vs, self.Vcur, self.mass, self.stress,
+            self.state[..., 1:], self.nmass, self.fbar, self.remap_count, self.mass_tiny, displacement,
+            self._state_tensors, self.nstate - 1, self.grain_density / (1.0 + E_MAX),
+            self.grain_density / (1.0 + E_MIN), self._remap_work,
+        )  # fmt: skip
+        displacement[...] = 0.0
+        _void_ratio_cyl(self.Vs, self.volume, self.mass, self.state, self.grain_density)
+        self.energy["remap_kinetic_loss"] += ke_before - _kinetic_energy_cyl(self.nmass, self.v)
+        self.lost_mass += lost
+        self.capped_volume += capped
+        self.remap_count += 1
 
     # --- diagnostics ------------------------------------------------------------------------------------------
     def soil_mass(self) -> float:

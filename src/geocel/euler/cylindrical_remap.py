@@ -1,0 +1,239 @@
+"""Remap of the soil on the cylindrical (r, θ, z) grid back onto its fixed cells (issue 18; experimental).
+
+Directional splitting in r, θ and z (the order alternates from one remap to the next) with the sweep kernels of
+the 3D remap (:func:`geocel.euler.remap.sweep_cells`, :func:`~geocel.euler.remap.sweep_nodes`: Hirt–Nichols
+soil volume, van Leer mass, stress and state per soil volume, nodal momentum on the dual grid), as the r–z
+remap (:mod:`geocel.euler.axisym_remap`) runs them on a wedge one sector thick; here the wedge has the model's
+sectors. The geometry enters through the face areas only:
+
+* **Lagrangian volume change** (:func:`volume_change_cyl`): J = 1 + Δt [(r₁ū₁ − r₀ū₀)/(r_c h_r) +
+  (ū_θ1 − ū_θ0)/(r_c Δθ) + (w̄₁ − w̄₀)/h_z], ū the faces' mean normal velocities (each node's own v_r on an
+  r face, v_θ on a θ face, v_z on a z face). It is exactly the trace of the one-point gradient of
+  :mod:`geocel.euler.cylindrical`, and the three sweeps return every cell to its volume V = r_c h_r Δθ h_z.
+* **Face areas**: an r face r_f Δθ h_z (the sweep gets u_r r_f as the face velocity and Δθ h_z as the area),
+  a θ face h_r h_z, a z face r_c h_r Δθ.
+* **Across θ the bases turn**: a cell's stress and the nodes' velocities are components in their own
+  (e_r, e_θ) basis, which differs from the neighbour's by Δθ. The θ sweep therefore carries Cartesian
+  components (tensors, vectors) and turns them back after it: a uniform Cartesian stress carried round the
+  axis stays uniform. The r and z sweeps stay within a sector, whose basis is one.
+* **The axis**: its nodes (0, j, k) of every j are one node; each copy is swept with its share Σ m_cell/8 of
+  the lumped mass, then the copies are merged (mass summed, v_z the momentum mean; v_r = v_θ = 0 held).
+
+Mass is conserved to round-off (the top face of the domain is open: material leaving is counted).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..materials.tensor import KERNEL_OPTIONS
+from .remap import soil_fraction, sweep_cells, sweep_nodes
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def volume_change_cyl(r, hr, dth, hz, u, dt, Vs, Vcur):
+    """V_cur = V J and V_s ← V_s J for every cell, J = 1 + Δt ∇·u with the face-flux divergence above."""
+    nr, nt, nz = Vs.shape
+    for i in prange(nr):
+        rc = 0.5 * (r[i] + r[i + 1])
+        for j in range(nt):
+            for k in range(nz):
+                u1 = 0.25 * (u[i + 1, j, k, 0] + u[i + 1, j + 1, k, 0] + u[i + 1, j, k + 1, 0] + u[i + 1, j + 1, k + 1, 0])
+                u0 = 0.25 * (u[i, j, k, 0] + u[i, j + 1, k, 0] + u[i, j, k + 1, 0] + u[i, j + 1, k + 1, 0])
+                t1 = 0.25 * (u[i, j + 1, k, 1] + u[i + 1, j + 1, k, 1] + u[i, j + 1, k + 1, 1] + u[i + 1, j + 1, k + 1, 1])
+                t0 = 0.25 * (u[i, j, k, 1] + u[i + 1, j, k, 1] + u[i, j, k + 1, 1] + u[i + 1, j, k + 1, 1])
+                w1 = 0.25 * (u[i, j, k + 1, 2] + u[i + 1, j, k + 1, 2] + u[i, j + 1, k + 1, 2] + u[i + 1, j + 1, k + 1, 2])
+                w0 = 0.25 * (u[i, j, k, 2] + u[i + 1, j, k, 2] + u[i, j + 1, k, 2] + u[i + 1, j + 1, k, 2])
+                J = 1.0 + dt * ((r[i + 1] * u1 - r[i] * u0) / (rc * hr[i]) + (t1 - t0) / (rc * dth) + (w1 - w0) / hz[k])
+                Vcur[i, j, k] = rc * hr[i] * dth * hz[k] * J
+                Vs[i, j, k] *= J
+
+
+@njit(**KERNEL_OPTIONS)
+def _turn_tensors(a, theta, offsets, sign):
+    """Turn the symmetric tensors (11, 22, 33, 12, 13, 23) stored at ``offsets`` of the last axis of the cell
+    array ``a`` (nr, nθ, nz, ·) from the cells' (r, θ, z) bases to Cartesian (``sign`` = +1) or back (−1);
+    ``theta`` (nθ): the cells' centre angles."""
+    nr, nt, nz, _ = a.shape
+    for j in range(nt):
+        c = np.cos(theta[j])
+        s = sign * np.sin(theta[j])
+        c2 = c * c
+        s2 = s * s
+        cs = c * s
+        for i in range(nr):
+            for k in range(nz):
+                for o in offsets:
+                    rr = a[i, j, k, o]
+                    tt = a[i, j, k, o + 1]
+                    rt = a[i, j, k, o + 3]
+                    rz = a[i, j, k, o + 4]
+                    tz = a[i, j, k, o + 5]
+                    a[i, j, k, o] = c2 * rr + s2 * tt - 2.0 * cs * rt
+                    a[i, j, k, o + 1] = s2 * rr + c2 * tt + 2.0 * cs * rt
+                    a[i, j, k, o + 3] = cs * (rr - tt) + (c2 - s2) * rt
+                    a[i, j, k, o + 4] = c * rz - s * tz
+                    a[i, j, k, o + 5] = s * rz + c * tz
+
+
+@njit(**KERNEL_OPTIONS)
+def _turn_vectors(a, theta, offsets, sign):
+    """Turn the vectors (r, θ, z) at ``offsets`` of the last axis of ``a`` (n1, nθ', n3, ·) to Cartesian
+    (``sign`` = +1) or back (−1); ``theta``: the angle of each index of the second axis."""
+    n1, nt, n3, _ = a.shape
+    for j in range(nt):
+        c = np.cos(theta[j])
+        s = sign * np.sin(theta[j])
+        for i in range(n1):
+            for k in range(n3):
+                for o in offsets:
+                    x = a[i, j, k, o]
+                    y = a[i, j, k, o + 1]
+                    a[i, j, k, o] = c * x - s * y
+                    a[i, j, k, o + 1] = s * x + c * y
+
+
+@njit(**KERNEL_OPTIONS)
+def node_copies_mass(mass, out):
+    """Σ m_cell/8 at every node, the axis copies unmerged (each its own share)."""
+    nr, nt, nz = mass.shape
+    for i in range(nr + 1):
+        for j in range(nt + 1):
+            for k in range(nz + 1):
+                s = 0.0
+                for ci in range(max(i - 1, 0), min(i + 1, nr)):
+                    for cj in range(max(j - 1, 0), min(j + 1, nt)):
+                        for ck in range(max(k - 1, 0), min(k + 1, nz)):
+                            s += mass[ci, cj, ck]
+                out[i, j, k] = 0.125 * s
+
+
+@njit(**KERNEL_OPTIONS)
+def _merge_axis(m, v, nmass):
+    """The axis copies (0, j, k) into one node: mass Σ_j m, v_z the momentum mean, v_r = v_θ = 0."""
+    nt1 = m.shape[1]
+    for k in range(m.shape[2]):
+        mt = 0.0
+        p = 0.0
+        for j in range(nt1):
+            mt += m[0, j, k]
+            p += m[0, j, k] * v[0, j, k, 2]
+        vz = p / mt if mt > 0.0 else 0.0
+        for j in range(nt1):
+            nmass[0, j, k] = mt
+            v[0, j, k, 0] = 0.0
+            v[0, j, k, 1] = 0.0
+            v[0, j, k, 2] = vz
+    for i in range(1, m.shape[0]):
+        for j in range(nt1):
+            for k in range(m.shape[2]):
+                nmass[i, j, k] = m[i, j, k]
+
+
+def tensor_offsets(state_names: tuple[str, ...]) -> tuple[int, ...]:
+    """Offsets of the symmetric tensors among a soil model's state components (six names ending in _11, _22,
+    _33, _12, _13, _23 in a row, e.g. the intergranular strain)."""
+    tail = ("_11", "_22", "_33", "_12", "_13", "_23")
+    return tuple(
+        o for o in range(len(state_names) - 5) if all(state_names[o + d].endswith(tail[d]) for d in range(6))
+    )
+
+
+_ORDERS = ((0, 1, 2), (2, 1, 0))
+_PERM = {0: (1, 2, 0), 1: (0, 2, 1), 2: (1, 0, 2)}
+
+
+def remap_cyl(
+    r: np.ndarray,
+    dth: float,
+    hz: np.ndarray,
+    v: np.ndarray,
+    Vs: np.ndarray,
+    Vcur: np.ndarray,
+    mass: np.ndarray,
+    stress: np.ndarray,
+    state: np.ndarray,
+    nmass: np.ndarray,
+    fbar: np.ndarray,
+    parity: int,
+    mtiny: float,
+    displacement: np.ndarray,
+    state_tensors: tuple[int, ...],
+    hourglass_offset: int,
+    rho_lo: float = 0.0,
+    rho_hi: float = np.inf,
+    work: dict | None = None,
+) -> tuple[float, float]:
+    """Advect everything back to the fixed cylindrical grid (in place) with the mesh motion ``displacement``
+    (m, node arrays (nr+1, nθ+1, nz+1, 3) in local components). ``state`` holds the advected state components
+    (the caller's view without e); ``state_tensors`` the offsets of its symmetric tensors and
+    ``hourglass_offset`` that of the 12 hourglass stresses (4 modes × (r, θ, z) directions), both turned
+    across the θ sweep. ``nmass`` (merged axis) is updated; ``fbar`` and ``work`` are scratch. Returns (mass
+    lost through the top, soil volume capped)."""
+    nr1, nt1, nz1 = nmass.shape
+    hr = np.diff(r)
+    rc = 0.5 * (r[1:] + r[:-1])
+    volume_change_cyl(r, hr, dth, hz, displacement, 1.0, Vs, Vcur)
+    if work is None:
+        work = {}
+    if work.get("shape") != nmass.shape:
+        work.update(
+            shape=nmass.shape,
+            u3=np.empty(nmass.shape + (3,)),
+            m_cur=np.empty(nmass.shape),
+            m_next=np.empty(nmass.shape),
+            phi=np.empty(Vs.shape),
+            theta_n=dth * np.arange(nt1),
+            theta_c=dth * (np.arange(nt1 - 1) + 0.5),
+        )
+    u3, m_cur, m_next, phi = work["u3"], work["m_cur"], work["m_next"], work["phi"]
+    u3[...] = displacement
+    u3[..., 0] *= r[:, None, None]  # an r face's flux: u_r r_f × Δθ h_z
+    node_copies_mass(mass, m_cur)
+    hth = np.full(nt1 - 1, dth)
+    h = {0: (hth, np.ascontiguousarray(hz)), 1: (hr, np.ascontiguousarray(hz)), 2: (hth, rc * hr)}
+    active = np.ones(Vs.shape, dtype=np.bool_)
+    tens = np.array(state_tensors, dtype=np.int64)
+    hgo = np.array([hourglass_offset + 3 * a for a in range(4)], dtype=np.int64)
+    lost = 0.0
+    capped = 0.0
+    for axis in _ORDERS[parity % 2]:
+        p = _PERM[axis]
+        pc = p + (3,)
+        if axis == 1:  # across θ: Cartesian components
+            _turn_tensors(stress, work["theta_c"], np.zeros(1, dtype=np.int64), 1.0)
+            _turn_tensors(state, work["theta_c"], tens, 1.0)
+            _turn_vectors(state, work["theta_c"], hgo, 1.0)
+            _turn_vectors(v, work["theta_n"], np.zeros(1, dtype=np.int64), 1.0)
+        soil_fraction(Vs, Vcur, phi)
+        lo, ca = sweep_cells(
+            h[axis][0],
+            h[axis][1],
+            active.transpose(p),
+            u3.transpose(pc),
+            axis,
+            1.0,
+            phi.transpose(p),
+            Vs.transpose(p),
+            Vcur.transpose(p),
+            mass.transpose(p),
+            stress.transpose(pc),
+            state.transpose(pc),
+            fbar.transpose(p),
+            axis == 2,
+            rho_lo,
+            rho_hi,
+        )
+        lost += lo
+        capped += ca
+        sweep_nodes(fbar.transpose(p), m_cur.transpose(p), m_next.transpose(p), v.transpose(pc), mtiny)
+        m_cur, m_next = m_next, m_cur
+        if axis == 1:
+            _turn_tensors(stress, work["theta_c"], np.zeros(1, dtype=np.int64), -1.0)
+            _turn_tensors(state, work["theta_c"], tens, -1.0)
+            _turn_vectors(state, work["theta_c"], hgo, -1.0)
+            _turn_vectors(v, work["theta_n"], np.zeros(1, dtype=np.int64), -1.0)
+    _merge_axis(m_cur, v, nmass)
+    work["m_cur"], work["m_next"] = m_cur, m_next
+    return lost, capped
