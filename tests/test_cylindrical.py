@@ -28,6 +28,7 @@ from geocel.solver.field import SolverSettings
 pytestmark = pytest.mark.usefixtures("one_thread")
 
 G = 9.81
+NONE = np.zeros(1)  # (no split node ring)
 RZ = AxisymmetricGrid(np.array([0.0, 0.04, 0.1, 0.18, 0.3, 0.5]), np.array([-0.4, -0.25, -0.15, -0.08, 0.0]))
 
 
@@ -41,7 +42,7 @@ def _gradients(g: CylindricalGrid, v: np.ndarray) -> np.ndarray:
     for i in range(g.nr):
         for j in range(g.ntheta):
             for k in range(g.nz):
-                out[i, j, k] = velocity_gradient_cyl(v, i, j, k, g.hr[i], g.rc[i], g.dtheta, g.hz[k])[0]
+                out[i, j, k] = velocity_gradient_cyl(v, i, j, k, g.hr[i], g.rc[i], g.dtheta, g.hz[k], -1, -1, NONE, NONE)[0]
     return out
 
 
@@ -73,7 +74,7 @@ def _update(g, mat, Vs, mass, c, v, dt, kappa_s=0.0, kappa=0.0):
     return update_cells_cyl(
         model_tag(mat.model_id), mat.to_array(), g.rc, g.hr, g.dtheta, g.hz, Vs, mass, c["stress"], c["state"], v,
         c["q"], c["hg"], c["modulus"], c["flags"], dt, 0.0, 0.0, kappa, kappa_s, nstate, *mat.strength_line(),
-        mat.substep_strain(0.1),
+        mat.substep_strain(0.1), -1, -1, NONE, NONE,
     )  # fmt: skip
 
 
@@ -440,3 +441,55 @@ def test_an_eccentric_load_with_the_remap_conserves_mass_and_energy():
     e = f.energy
     assert abs(f.energy_balance_error()) < 0.01 * e["external_work"]
     assert np.abs(f.v[..., 1]).max() > 1e-3
+
+
+# --------------------------------------------------------------------------- the pile
+@pytest.mark.parametrize("rim, frame", [("corner", "pile"), ("base", "laboratory")])
+def test_the_jacked_pile_is_the_rz_pile_when_nothing_depends_on_theta(rim, frame):
+    """A rigid pile (a = 0.3 m, 2 cells per radius, μ = 0.364) jacked at 0.5 m/s into hypoplastic sand (S = 10)
+    on a quarter in 3 sectors, with the split corner in the pile's frame and with the base's rim in the
+    laboratory's: q_b, q_s, the velocities, stresses, energies and mass of every sector are those of the r–z
+    run with the same Δt to round-off (the contact's steps on every node line, the corner ring's parts, the
+    pile's cells out of the remap, the grid moving with the base), with no soil inside the pile."""
+    from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ
+    from geocel.contact.cylindrical import CylindricalPileContact
+
+    a_ = 0.3
+    rz = AxisymmetricGrid.graded(radius=2.4, soil_depth=2.5, void_height=0.5, fine_size=a_ / 2, fine_radius=1.2,
+                                 fine_depth=1.0, growth=1.3, max_size=0.4)  # fmt: skip
+    g = CylindricalGrid.from_axisymmetric(rz, 3)
+    mat = Hypoplastic.fraction_e()
+    st = dict(bulk_viscosity_linear=0.0, bulk_viscosity_quadratic=0.0, remap_courant=0.0)
+    a = AxisymmetricField(rz, mat, scaling=10.0, settings=SolverSettings(**st))
+    b = CylindricalField(g, mat, scaling=10.0, settings=SolverSettings(**st))
+    for f in (a, b):
+        f.fill_below(0.0)
+        f.geostatic([(0.0, 0.62)], k0=0.5)
+    ca = AxisymmetricPileContact(a, RigidPileRZ(a_, 0.0), friction=0.364, base_friction=0.364, rim=rim)
+    cb = CylindricalPileContact(b, RigidPileRZ(a_, 0.0), friction=0.364, base_friction=0.364, rim=rim)
+    if frame == "pile":
+        ca.follow_pile()
+        cb.follow_pile()
+    dt = min(a.dt, b.dt)
+    qa, qb = [], []
+    for n in range(200):
+        a.dt = b.dt = dt
+        vh = 0.5 * min(1.0, (n + 1) / 50)
+        ca.step(vh)
+        cb.step(vh)
+        qa.append((ca.qb(), ca.qs()))
+        qb.append((cb.qb(), cb.qs()))
+    qa, qb = np.array(qa), np.array(qb)
+    assert qa[-1, 0] > 1e5 and qa[-1, 1] > 0
+    for c in range(2):  # q_b, q_s
+        np.testing.assert_allclose(qb[:, c], qa[:, c], rtol=0, atol=1e-11 * np.abs(qa[:, c]).max())
+    vmax = np.abs(a.v).max()
+    va = np.broadcast_to(a.v[:, None], b.v[..., (0, 2)].shape).copy()
+    va[0, ..., 0] = 0.0
+    np.testing.assert_allclose(b.v[..., (0, 2)], va, rtol=0, atol=1e-11 * vmax)
+    np.testing.assert_allclose(b.stress, np.broadcast_to(a.stress[:, None], b.stress.shape), rtol=0,
+                               atol=1e-11 * np.abs(a.stress).max())  # fmt: skip
+    for key in ("kinetic", "internal", "hourglass", "external_work", "remap_kinetic_loss"):
+        assert b.energy[key] == pytest.approx(a.energy[key] * g.angle, rel=1e-9)
+    assert abs(b.mass_error()) < 1e-13 and cb.soil_inside() == 0.0
+    assert b.frame_offset == pytest.approx(a.frame_offset, rel=1e-14)

@@ -612,7 +612,7 @@ class AxisymmetricPileContact:
         if self.rim == "corner":
             # the pile's cells carry no flux in the remap: the corner's parts move the faces under the base
             # and beside the shaft differently, and the pile's faces must not carry soil either way
-            self.field.active[: self.ia, k:] = False
+            self.field.active[: self.ia, ..., k:] = False
 
     def base_row(self) -> int:
         """Node row k_c at or just below the base (z[k_c] ≤ z_b, to 1e-9 of a cell)."""

@@ -63,20 +63,21 @@ FORCE_FACTORS_CYL = 27
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def node_mass_cyl(mass, out):
+def node_mass_cyl(mass, out, k1=-1):
     """Lumped nodal mass: an eighth of each adjacent cell's mass; the axis nodes (0, j, k) of every j hold the
-    sum over j (they are one node)."""
+    sum over j (they are one node). ``k1`` ≥ 0: the node rows below k1 only."""
     nr, nt, nz = mass.shape
+    k1 = nz + 1 if k1 < 0 else k1
     for i in prange(nr + 1):
         for j in range(nt + 1):
-            for k in range(nz + 1):
+            for k in range(k1):
                 s = 0.0
                 for ci in range(max(i - 1, 0), min(i + 1, nr)):
                     for cj in range(max(j - 1, 0), min(j + 1, nt)):
                         for ck in range(max(k - 1, 0), min(k + 1, nz)):
                             s += mass[ci, cj, ck]
                 out[i, j, k] = 0.125 * s
-    for k in range(nz + 1):
+    for k in range(k1):
         s = 0.0
         for j in range(nt + 1):
             s += out[0, j, k]
@@ -272,9 +273,14 @@ def advance_nodes_cyl(
 
 
 @njit(**KERNEL_OPTIONS)
-def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz):
+def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz, si, sk, zi, rb):
     """Velocity gradient L (9-tuple, row-major L_ab, a, b ∈ r, θ, z) at the centre of cell (i, j, k) (module
-    docstring) and the hourglass amplitudes q_α = Σ h_αI v_I (α = ξη, ηζ, ξζ, ξηζ; 4 × 3 as a 12-tuple)."""
+    docstring) and the hourglass amplitudes q_α = Σ h_αI v_I (α = ξη, ηζ, ξζ, ξηζ; 4 × 3 as a 12-tuple).
+
+    ``si, sk`` ≥ 0 (−1: none; ``zi``, ``rb`` are then not read): the nodes (si, ·, sk) are split at the pile's corner (as r–z's
+    :func:`geocel.euler.axisym.split_gradient_rz`, on every node line j): the cells under the base's edge
+    (si − 1, ·, sk − 1) see the vertical velocity ``zi[j]`` there instead of v_z, the cells beside the shaft
+    (si, ·, sk) the radial velocity ``rb[j]`` instead of v_r."""
     sr = (0.0, 0.0, 0.0)
     st = (0.0, 0.0, 0.0)
     sz = (0.0, 0.0, 0.0)
@@ -292,6 +298,11 @@ def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz):
                 v0 = v[i + a, j + b, k + c, 0]
                 v1 = v[i + a, j + b, k + c, 1]
                 v2 = v[i + a, j + b, k + c, 2]
+                if i + a == si and k + c == sk:
+                    if a == 1 and c == 1:
+                        v2 = zi[j + b]
+                    elif a == 0 and c == 0:
+                        v0 = rb[j + b]
                 sr = (sr[0] + xi * v0, sr[1] + xi * v1, sr[2] + xi * v2)
                 st = (st[0] + eta * v0, st[1] + eta * v1, st[2] + eta * v2)
                 sz = (sz[0] + zeta * v0, sz[1] + zeta * v1, sz[2] + zeta * v2)
@@ -325,13 +336,14 @@ def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz):
 @njit(parallel=True, **KERNEL_OPTIONS)
 def update_cells_cyl(
     tag, prm, rc, hr, dth, hz, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s, hoff,
-    mf, cf, max_sub,
+    mf, cf, max_sub, si, sk, zi, rb,
 ):  # fmt: skip
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (D and W from
     :func:`velocity_gradient_cyl`), the bulk-viscosity pressure q and the hourglass resistance for the next
     nodal pass, as :func:`geocel.euler.lagrange.update_cells` on the cell's local box h_r × r_c Δθ × h_z
-    (module docstring). ``state[..., hoff:hoff + 12]`` holds the hourglass generalised stresses (Pa). Returns
-    (stable Δt of the cells, flat index of the cell governing it)."""
+    (module docstring). ``state[..., hoff:hoff + 12]`` holds the hourglass generalised stresses (Pa); ``si, sk,
+    zi, rb``: a ring of split nodes (:func:`velocity_gradient_cyl`; si < 0: none, zi and rb then any arrays).
+    Returns (stable Δt of the cells, flat index of the cell governing it)."""
     nr, nt, nz = Vs.shape
     n = nr * nt * nz
     s2 = stress.reshape((n, 6))
@@ -364,7 +376,7 @@ def update_cells_cyl(
                         st2[c, hoff + 3 * a + d] = 0.0
                 flags[i, j, k] = 0
                 continue
-            L, qh = velocity_gradient_cyl(v, i, j, k, h_r, r_c, dth, h_z)
+            L, qh = velocity_gradient_cyl(v, i, j, k, h_r, r_c, dth, h_z, si, sk, zi, rb)
             D = (
                 L[0] * dt,
                 L[4] * dt,

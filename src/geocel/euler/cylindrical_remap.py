@@ -32,8 +32,11 @@ from .remap import soil_fraction, sweep_cells, sweep_nodes
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def volume_change_cyl(r, hr, dth, hz, u, dt, Vs, Vcur):
-    """V_cur = V J and V_s ← V_s J for every cell, J = 1 + Δt ∇·u with the face-flux divergence above."""
+def volume_change_cyl(r, hr, dth, hz, u, dt, Vs, Vcur, si, sk, uz_in, ur_b):
+    """V_cur = V J and V_s ← V_s J for every cell, J = 1 + Δt ∇·u with the face-flux divergence above.
+    ``si, sk`` ≥ 0: the node ring split at the pile's corner (:func:`geocel.euler.cylindrical.velocity_gradient_cyl`):
+    the cells left of it see its vertical motion ``uz_in[j]``, the cells right of and above it its radial motion
+    ``ur_b[j]``."""
     nr, nt, nz = Vs.shape
     for i in prange(nr):
         rc = 0.5 * (r[i] + r[i + 1])
@@ -45,6 +48,12 @@ def volume_change_cyl(r, hr, dth, hz, u, dt, Vs, Vcur):
                 t0 = 0.25 * (u[i, j, k, 1] + u[i + 1, j, k, 1] + u[i, j, k + 1, 1] + u[i + 1, j, k + 1, 1])
                 w1 = 0.25 * (u[i, j, k + 1, 2] + u[i + 1, j, k + 1, 2] + u[i, j + 1, k + 1, 2] + u[i + 1, j + 1, k + 1, 2])
                 w0 = 0.25 * (u[i, j, k, 2] + u[i + 1, j, k, 2] + u[i, j + 1, k, 2] + u[i + 1, j + 1, k, 2])
+                if i == si - 1 and k == sk - 1:
+                    w1 += 0.25 * (uz_in[j] + uz_in[j + 1] - u[si, j, sk, 2] - u[si, j + 1, sk, 2])
+                elif i == si - 1 and k == sk:
+                    w0 += 0.25 * (uz_in[j] + uz_in[j + 1] - u[si, j, sk, 2] - u[si, j + 1, sk, 2])
+                elif i == si and k == sk:
+                    u0 += 0.25 * (ur_b[j] + ur_b[j + 1] - u[si, j, sk, 0] - u[si, j + 1, sk, 0])
                 J = 1.0 + dt * ((r[i + 1] * u1 - r[i] * u0) / (rc * hr[i]) + (t1 - t0) / (rc * dth) + (w1 - w0) / hz[k])
                 Vcur[i, j, k] = rc * hr[i] * dth * hz[k] * J
                 Vs[i, j, k] *= J
@@ -164,17 +173,25 @@ def remap_cyl(
     rho_lo: float = 0.0,
     rho_hi: float = np.inf,
     work: dict | None = None,
+    active: np.ndarray | None = None,
+    split: tuple[int, int] = (-1, -1),
+    split_z: np.ndarray | None = None,
+    split_r: np.ndarray | None = None,
 ) -> tuple[float, float]:
     """Advect everything back to the fixed cylindrical grid (in place) with the mesh motion ``displacement``
     (m, node arrays (nr+1, nθ+1, nz+1, 3) in local components). ``state`` holds the advected state components
     (the caller's view without e); ``state_tensors`` the offsets of its symmetric tensors and
     ``hourglass_offset`` that of the 12 hourglass stresses (4 modes × (r, θ, z) directions), both turned
-    across the θ sweep. ``nmass`` (merged axis) is updated; ``fbar`` and ``work`` are scratch. Returns (mass
-    lost through the top, soil volume capped)."""
+    across the θ sweep. ``nmass`` (merged axis) is updated; ``fbar`` and ``work`` are scratch. ``active``
+    (cells, bool; default all): faces next to an inactive cell carry no flux. ``split``, ``split_z``,
+    ``split_r``: a node ring split at the pile's corner and its parts' mesh motions (:func:`volume_change_cyl`).
+    Returns (mass lost through the top, soil volume capped)."""
     nr1, nt1, nz1 = nmass.shape
     hr = np.diff(r)
     rc = 0.5 * (r[1:] + r[:-1])
-    volume_change_cyl(r, hr, dth, hz, displacement, 1.0, Vs, Vcur)
+    sz_ = np.zeros(nt1) if split_z is None else split_z
+    sr_ = np.zeros(nt1) if split_r is None else split_r
+    volume_change_cyl(r, hr, dth, hz, displacement, 1.0, Vs, Vcur, split[0], split[1], sz_, sr_)
     if work is None:
         work = {}
     if work.get("shape") != nmass.shape:
@@ -193,7 +210,8 @@ def remap_cyl(
     node_copies_mass(mass, m_cur)
     hth = np.full(nt1 - 1, dth)
     h = {0: (hth, np.ascontiguousarray(hz)), 1: (hr, np.ascontiguousarray(hz)), 2: (hth, rc * hr)}
-    active = np.ones(Vs.shape, dtype=np.bool_)
+    if active is None:
+        active = np.ones(Vs.shape, dtype=np.bool_)
     tens = np.array(state_tensors, dtype=np.int64)
     hgo = np.array([hourglass_offset + 3 * a for a in range(4)], dtype=np.int64)
     lost = 0.0

@@ -35,8 +35,9 @@ from .field import E_MAX, E_MIN, FieldBalances, InstabilityError, Material, Solv
 
 
 @njit(**KERNEL_OPTIONS)
-def _accumulate_cyl(rr, rt, rz, v, dt, u):
-    """u ← u + v Δt at every node; returns the largest |u_d| / spacing (the pending remap's Courant number)."""
+def _accumulate_cyl(rr, rt, rz, v, dt, u, wz):
+    """u ← u + (v − w) Δt at every node, w = (0, 0, ``wz``) the grid's own velocity (the pile's frame; 0 for a
+    fixed grid); returns the largest |u_d| / spacing (the pending remap's Courant number)."""
     n1, n2, n3, _ = v.shape
     c = 0.0
     for i in range(n1):
@@ -44,7 +45,7 @@ def _accumulate_cyl(rr, rt, rz, v, dt, u):
             for k in range(n3):
                 a = u[i, j, k, 0] + dt * v[i, j, k, 0]
                 b = u[i, j, k, 1] + dt * v[i, j, k, 1]
-                w = u[i, j, k, 2] + dt * v[i, j, k, 2]
+                w = u[i, j, k, 2] + dt * (v[i, j, k, 2] - wz)
                 u[i, j, k, 0] = a
                 u[i, j, k, 1] = b
                 u[i, j, k, 2] = w
@@ -123,6 +124,21 @@ class CylindricalField(FieldBalances):
         arcs = np.maximum(g.r, g.r[1]) * g.dtheta
         self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / arcs, 1.0 / node_spacing(g.hz))
         self._state_tensors = tensor_offsets(self.material.state_names[1:])
+        #: the cells that take part in the remap (the pile's cells in its frame do not)
+        self.active = np.ones(shape, dtype=np.bool_)
+        #: a ring of nodes split at the pile's corner (``rim = "corner"``; geocel.euler.cylindrical
+        #: velocity_gradient_cyl): (i, k), −1: none, and per node line the vertical velocity the cells under the
+        #: base's edge see and the radial one the cells beside the shaft see; the same with the mesh motions
+        #: in the remap
+        self.split_ring = (-1, -1)
+        self.split_z = np.zeros(g.ntheta + 1)
+        self.split_r = np.zeros(g.ntheta + 1)
+        self.remap_split_z = np.zeros(g.ntheta + 1)
+        self.remap_split_r = np.zeros(g.ntheta + 1)
+        #: the contact's correction to the kinetic energy of the step (J; the parts of the split nodes)
+        self.kinetic_correction = 0.0
+        #: contact with a pile (:class:`geocel.contact.cylindrical.CylindricalPileContact`)
+        self.contact = None
         self._init_bookkeeping()
 
     # --- initial state ------------------------------------------------------------------------------------------
@@ -205,22 +221,28 @@ class CylindricalField(FieldBalances):
 
     # --- the explicit step ----------------------------------------------------------------------------------
     def step(self, dt: float | None = None) -> None:
-        """One explicit step: the Lagrangian phase, then the remap when the accumulated node displacements reach
-        ``remap_courant`` of a cell (every step with 0, never with ``np.inf``)."""
+        """One explicit step: the Lagrangian phase (with the contact's projection of the trial velocities, if
+        a pile is attached), then the remap when the accumulated node displacements reach ``remap_courant`` of
+        a cell (every step with 0, never with ``np.inf``)."""
         st = self.settings
         dt = self.dt if dt is None else dt
+        contact = self.contact
         t0 = perf_counter()
+        if contact is not None:
+            contact.before_nodes(dt)
         ke, dEi, dEv, dEh, wg, wx = advance_nodes_cyl(
             self.hr, self.hz, self.rc, self.dtheta, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass,
             self.v, self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
             self.mass_tiny, self._force_factors,
         )  # fmt: skip
+        if contact is not None:
+            contact.apply(dt)
         t1 = perf_counter()
         dtc, arg = update_cells_cyl(
             self.model_tag, self.prm, self.rc, self.hr, self.dtheta, self.hz, self.Vs, self.mass, self.stress,
             self.state, self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength,
-            self._max_substep,
+            self._max_substep, self.split_ring[0], self.split_ring[1], self.split_z, self.split_r,
         )  # fmt: skip
         if not (math.isfinite(ke) and math.isfinite(dEi)):
             raise InstabilityError(
@@ -229,21 +251,28 @@ class CylindricalField(FieldBalances):
             )
         t2 = perf_counter()
         rc_ = st.remap_courant
+        wz = self.frame_velocity
         if rc_ < math.inf:
             if rc_ <= 0.0:
                 self.u_remap[...] = 0.0
-            courant = _accumulate_cyl(*self._node_reciprocal, self.v, dt, self.u_remap)
+            courant = _accumulate_cyl(*self._node_reciprocal, self.v, dt, self.u_remap, wz)
             if courant > 1.0:
                 raise InstabilityError(
                     f"cylindrical step {self.step_count}: a node moved {courant:.3g} cells in one remap interval "
                     f"(Δt = {dt:.3g} s)",
                     {"step": self.step_count, "time": self.time, "dt": dt, "quantity": "courant", "courant": courant},
                 )
+            self.frame_offset += wz * dt
             if rc_ <= 0.0 or courant >= rc_:
+                if contact is not None:
+                    contact.before_remap(self.u_remap)
                 self.remap(self.u_remap)
+                self.refill_bottom()
+        else:
+            self.frame_offset += wz * dt
         t3 = perf_counter()
         e = self.energy
-        e["kinetic"] = ke
+        e["kinetic"] = ke + self.kinetic_correction
         e["internal"] += dEi
         e["viscous"] += dEv
         e["hourglass"] += dEh
@@ -267,7 +296,8 @@ class CylindricalField(FieldBalances):
             self.grid.r, self.dtheta, self.hz, self.v, self.Vs, self.Vcur, self.mass, self.stress,
             self.state[..., 1:], self.nmass, self.fbar, self.remap_count, self.mass_tiny, displacement,
             self._state_tensors, self.nstate - 1, self.grain_density / (1.0 + E_MAX),
-            self.grain_density / (1.0 + E_MIN), self._remap_work,
+            self.grain_density / (1.0 + E_MIN), self._remap_work, self.active, self.split_ring, self.remap_split_z,
+            self.remap_split_r,
         )  # fmt: skip
         displacement[...] = 0.0
         _void_ratio_cyl(self.Vs, self.volume, self.mass, self.state, self.grain_density)
@@ -275,6 +305,10 @@ class CylindricalField(FieldBalances):
         self.lost_mass += lost
         self.capped_volume += capped
         self.remap_count += 1
+
+    def _lump_bottom_rows(self) -> None:
+        """The lumped masses of the two node rows around the refilled bottom cells."""
+        node_mass_cyl(self.mass, self.nmass, 2)
 
     # --- diagnostics ------------------------------------------------------------------------------------------
     def soil_mass(self) -> float:

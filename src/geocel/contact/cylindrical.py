@@ -1,0 +1,540 @@
+"""Contact of a pile on the axis with the soil on the cylindrical (r, θ, z) grid (issue 18; experimental).
+
+The r–z contact (:mod:`geocel.contact.axisym`, whose docstring gives the reasoning) on every node line θ_j of
+the cylindrical grid: the pile's radius is the node ring r = r[i_a], its base a node row (in the pile's frame),
+and the nodes are projected on the trial velocities of the Lagrangian phase:
+
+* **shaft** (i = i_a, k > k_c): Signorini's condition on v_r; Coulomb friction on the tangential velocity
+  relative to the pile, (v_θ, v_z − v_s), |Δv_t| ≤ μ Δv_r (the r–z condition with the θ component added);
+* **base and the pile's interior** (i < i_a, k ≥ k_c): Signorini's condition on v_z − v_p, friction
+  ``base_friction`` on (v_r, v_θ); the axis nodes of every line are one node (projected once);
+* **rim** (i = i_a, k = k_c): ``"corner"`` (the pile's frame; the default there) splits each node of the ring
+  between its soil cells as :func:`geocel.contact.axisym.corner_rz` does — the soil under the base's edge moves
+  with the base, the soil beside the shaft slides along it — with each part's mass and forces from its cells
+  on both sides of the node line (v_θ is not split: the ring's nodes keep their own); ``"base"`` or
+  ``"shaft"`` give it the base's or the shaft's condition.
+
+The node forces the corner's parts need are gathered from the nodal pass's per-cell factors
+(:func:`geocel.euler.cylindrical.cell_force_factors_cyl`), so nothing is recomputed. Forces are those of the
+modelled sector (N); the pile's are × 2π/Θ (Θ the model's angle). When nothing depends on θ every line does
+what the r–z contact does on its plane, and the run is the r–z run (tests/test_cylindrical.py).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..bodies.pile import ContactLoad, PileBody, Surface
+from ..euler.cylindrical import gather_node_force_cyl
+from ..materials.tensor import KERNEL_OPTIONS
+from .axisym import AxisymmetricPileContact, RigidPileRZ, _split_trial, _split_velocity
+
+#: rim node treatments (kernel codes 0, 1, 3 as in r–z; r–z's "split" has no counterpart here)
+RIM_OPTIONS_CYL = ("shaft", "base", "corner")
+
+
+@njit(**KERNEL_OPTIONS)
+def _node_force(i, j, k, cf, nr, nt, nz):
+    """:func:`gather_node_force_cyl`; on the axis the sum over every line's copy (one node)."""
+    if i > 0:
+        return gather_node_force_cyl(i, j, k, cf, nr, nt, nz)
+    g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    for jj in range(nt + 1):
+        h = gather_node_force_cyl(0, jj, k, cf, nr, nt, nz)
+        g = (g[0] + h[0], g[1] + h[1], g[2] + h[2], g[3] + h[3], g[4] + h[4], g[5] + h[5], g[6] + h[6], g[7] + h[7],
+             g[8] + h[8])  # fmt: skip
+    return g
+
+
+@njit(**KERNEL_OPTIONS)
+def _outer_forces(ia, j, kc, cf, nt):
+    """The forces of the cells outside the ring (ci = i_a) on node (i_a, j, k_c), the node their inner
+    corner (ξ = −1): vertical (stress, viscous, hourglass) from the cells below and above the base's row, and
+    radial from those above it (the soil beside the shaft)."""
+    zs = 0.0
+    zq = 0.0
+    zh = 0.0
+    rs = 0.0
+    rq = 0.0
+    rh = 0.0
+    xi = -1.0
+    for cj in range(max(j - 1, 0), min(j + 1, nt)):
+        eta = 1.0 if cj < j else -1.0
+        for ck in (kc - 1, kc):
+            zeta = 1.0 if ck < kc else -1.0
+            c = cf[ia, cj, ck]
+            zs -= xi * c[8] + eta * c[9] + zeta * c[10]
+            zq += zeta * c[14]
+            h1 = xi * eta
+            h2 = eta * zeta
+            h3 = xi * zeta
+            h4 = h1 * zeta
+            zh -= h1 * c[17] + h2 * c[20] + h3 * c[23] + h4 * c[26]
+            if ck == kc:
+                rs -= xi * c[0] + eta * c[1] + zeta * c[2] + c[3]
+                rq += xi * c[11] + c[12]
+                rh -= h1 * c[15] + h2 * c[18] + h3 * c[21] + h4 * c[24]
+    return (zs, zq, zh), (rs, rq, rh)
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def _base_projection(i, j, k, nmass, v, fix, mtiny, vp, mu_b, kap, c, out):
+    """Signorini's condition of node (i, j, k) against the base, friction μ_b on (v_r, v_θ); the velocity change
+    scaled by ``kap``. Returns whether it acted."""
+    m = nmass[i, j, k]
+    if m <= mtiny:
+        return False
+    o0 = v[i, j, k, 0]
+    o1 = v[i, j, k, 1]
+    o2 = v[i, j, k, 2]
+    w = (o2 - vp) * kap
+    if w <= 0.0:
+        return False
+    t = math.sqrt(o0 * o0 + o1 * o1)
+    lim = mu_b * w
+    s = 0.0 if t <= lim else (t - lim) / t  # what is left of the tangential velocity
+    n = (o0 * s, o1 * s, o2 - w)
+    for d in range(3):
+        nd = o0 if d == 0 else (o1 if d == 1 else o2)
+        if not fix[i, j, k, d]:
+            nd = n[d]
+        f = m * (nd - (o0 if d == 0 else (o1 if d == 1 else o2))) * c
+        v[i, j, k, d] = nd
+        if d == 0:
+            out[0] -= f
+        elif d == 2:
+            out[1] -= f
+            out[4] += f * vp
+    out[5] += 1.0
+    return True
+
+
+@njit(**KERNEL_OPTIONS)
+def project_pile_cyl(ia, kc, nmass, v, fix, mtiny, vp, vs, mu, mu_b, rim, dt, fn, ft, out):
+    """Velocity projection of the soil nodes in contact with the pile (module docstring), in place on v:
+    :func:`geocel.contact.axisym.project_pile_rz` on every node line, with the θ components. Outputs (forces of
+    the soil on the pile, N, the modelled sector): ``fn``/``ft`` (nθ+1, nz+1) the normal (≥ 0) and vertical
+    friction force at every shaft node; ``out`` (6): base (r, z), shaft (r, z), Σ f·v_pile of the forces on the
+    soil and the number of constraints that acted."""
+    nt1 = nmass.shape[1]
+    nz1 = nmass.shape[2]
+    for d in range(6):
+        out[d] = 0.0
+    fn[...] = 0.0
+    ft[...] = 0.0
+    c = 1.0 / dt
+    for k in range(kc, nz1):  # the axis: one node
+        if _base_projection(0, 0, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out):
+            for j in range(1, nt1):
+                for d in range(3):
+                    v[0, j, k, d] = v[0, 0, k, d]
+    for i in range(1, ia):
+        for j in range(nt1):
+            for k in range(kc, nz1):
+                _base_projection(i, j, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out)
+    for j in range(nt1):
+        if rim == 1:
+            _base_projection(ia, j, kc, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out)
+            m = nmass[ia, j, kc]
+            if m > mtiny and v[ia, j, kc, 0] < 0.0 and not fix[ia, j, kc, 0]:
+                out[0] += m * v[ia, j, kc, 0] * c  # no soil into the pile under its corner
+                v[ia, j, kc, 0] = 0.0
+        for k in range(kc + (1 if rim > 0 else 0), nz1):
+            m = nmass[ia, j, k]
+            if m <= mtiny:
+                continue
+            o0 = v[ia, j, k, 0]
+            if o0 >= 0.0 or fix[ia, j, k, 0]:
+                continue  # separating (or held by the grid)
+            o1 = v[ia, j, k, 1]
+            o2 = v[ia, j, k, 2]
+            dvn = -o0
+            t1 = o1
+            t2 = o2 - vs[k]
+            t = math.sqrt(t1 * t1 + t2 * t2)
+            lim = mu * dvn
+            s = 1.0 if t <= lim else lim / t  # the share of the tangential velocity removed
+            d1 = 0.0 if fix[ia, j, k, 1] else -s * t1
+            d2 = 0.0 if fix[ia, j, k, 2] else -s * t2
+            v[ia, j, k, 0] = 0.0
+            v[ia, j, k, 1] = o1 + d1
+            v[ia, j, k, 2] = o2 + d2
+            f_n = m * dvn * c
+            f_t = m * d2 * c
+            fn[j, k] = f_n
+            ft[j, k] = -f_t
+            out[2] -= f_n
+            out[3] -= f_t
+            out[4] += f_t * vs[k]
+            out[5] += 1.0
+
+
+@njit(**KERNEL_OPTIONS)
+def corner_cyl(ia, kc, cf, mass, v, v_old, fix, mtiny, gravity, vp, vs_k, mu, mu_b, dt, corner, fn, ft, out, cw):
+    """The ring of nodes (i_a, ·, k_c) split at the pile's corner (module docstring; on each line j as
+    :func:`geocel.contact.axisym.corner_rz`, with the masses and forces of the cells on both sides of the
+    line). ``corner`` (nθ+1, 4): per line (w_z, w_r) the parts' relative velocities, updated, and (v_z^in,
+    v_r^B) received; ``cw`` (6): the energy corrections summed over the ring."""
+    nr, nt, nz = mass.shape
+    for d in range(6):
+        cw[d] = 0.0
+    c = 1.0 / dt
+    for j in range(nt + 1):
+        m_i = 0.0
+        m_l = 0.0
+        m_u = 0.0
+        for cj in range(max(j - 1, 0), min(j + 1, nt)):
+            m_i += 0.125 * mass[ia - 1, cj, kc - 1]
+            m_l += 0.125 * mass[ia, cj, kc - 1]
+            m_u += 0.125 * mass[ia, cj, kc]
+        m_A = m_i + m_l
+        m_o = m_l + m_u
+        m = m_A + m_u
+        if m <= mtiny:  # (nothing to split)
+            corner[j, 0] = 0.0
+            corner[j, 1] = 0.0
+            corner[j, 2] = v[ia, j, kc, 2]
+            corner[j, 3] = v[ia, j, kc, 0]
+            continue
+        g = gather_node_force_cyl(ia, j, kc, cf, nr, nt, nz)
+        fzO, frB = _outer_forces(ia, j, kc, cf, nt)
+        vr_t = v[ia, j, kc, 0]
+        vz_t = v[ia, j, kc, 2]
+        zi_o, zo_o = _split_velocity(m_i, m_o, mtiny, v_old[ia, j, kc, 2], corner[j, 0])
+        ra_o, rb_o = _split_velocity(m_A, m_u, mtiny, v_old[ia, j, kc, 0], corner[j, 1])
+        az_o = (fzO[0] + fzO[1] + fzO[2]) / max(m_o, mtiny) - gravity
+        zi_t, zo_t = _split_trial(m_i, m_o, mtiny, vz_t, zo_o, az_o, dt)
+        ra_t, rb_t = _split_trial(m_A, m_u, mtiny, vr_t, rb_o, (frB[0] + frB[1] + frB[2]) / max(m_u, mtiny), dt)
+        drb = -rb_t if (rb_t < 0.0 and m_u > mtiny and not fix[ia, j, kc, 0]) else 0.0
+        dzo = 0.0
+        if drb > 0.0 and m_o > mtiny and not fix[ia, j, kc, 2]:
+            t = zo_t - vs_k
+            lim = mu * m_u * drb / m_o
+            dzo = -t if abs(t) <= lim else (-lim if t > 0.0 else lim)
+        dzi = 0.0
+        if m_i > mtiny and zi_t > vp and not fix[ia, j, kc, 2]:
+            dzi = vp - zi_t
+        dra = 0.0
+        if dzi != 0.0 and not fix[ia, j, kc, 0]:
+            lim = mu_b * m_i * (-dzi) / m_A
+            dra = -ra_t if abs(ra_t) <= lim else (-lim if ra_t > 0.0 else lim)
+        zi = zi_t + dzi
+        zo = zo_t + dzo
+        ra = ra_t + dra
+        rb = rb_t + drb
+        vr = (m_A * ra + m_u * rb) / m
+        vz = (m_i * zi + m_o * zo) / m
+        v[ia, j, kc, 0] = vr
+        v[ia, j, kc, 2] = vz
+        corner[j, 0] = zo - zi if (m_i > mtiny and m_o > mtiny) else 0.0
+        corner[j, 1] = rb - ra if (m_A > mtiny and m_u > mtiny) else 0.0
+        corner[j, 2] = zi
+        corner[j, 3] = rb
+        frb = m_A * dra * c
+        fzb = m_i * dzi * c
+        out[0] -= frb
+        out[1] -= fzb
+        out[4] += fzb * vp
+        f_n = m_u * drb * c
+        f_t = m_o * dzo * c
+        fn[j, kc] = f_n
+        ft[j, kc] = -f_t
+        out[2] -= f_n
+        out[3] -= f_t
+        out[4] += f_t * vs_k
+        out[5] += (1.0 if dzi != 0.0 else 0.0) + (1.0 if drb > 0.0 else 0.0)
+        ar = 0.5 * (v_old[ia, j, kc, 0] + vr_t)
+        az = 0.5 * (v_old[ia, j, kc, 2] + vz_t)
+        bA = 0.5 * (ra_o + ra)
+        bB = 0.5 * (rb_o + rb)
+        bi = 0.5 * (zi_o + zi)
+        bo = 0.5 * (zo_o + zo)
+        fr = (g[0], g[3], g[6])
+        fz = (g[2], g[5], g[8])
+        for d in range(3):
+            true = (fr[d] - frB[d]) * bA + frB[d] * bB + (fz[d] - fzO[d]) * bi + fzO[d] * bo
+            cw[d] -= dt * (true - fr[d] * ar - fz[d] * az)
+        cw[3] -= gravity * dt * (m_i * bi + m_o * bo - m * az)
+        cw[4] += m_A * dra * bA + m_u * drb * bB + m_i * dzi * bi + m_o * dzo * bo
+        cw[5] += 0.5 * (m_A * bA * bA + m_u * bB * bB + m_i * bi * bi + m_o * bo * bo) - 0.5 * m * (ar * ar + az * az)
+
+
+@njit(**KERNEL_OPTIONS)
+def contact_step_cyl(
+    ia, kc, cf, mass, nmass, v, fix, mtiny, gravity, vp, vs, mu, mu_b, rim, dt, v_old, v_trial, fn, ft, out, work,
+    corner, cw,
+):  # fmt: skip
+    """One step's contact (:func:`geocel.contact.axisym.contact_step_rz` on the cylindrical grid): keep the
+    trial velocities of the nodes [0, i_a] × all lines × [k_c, nz], project, split the corner ring, and book
+    the work as :func:`geocel.contact.axisym.contact_work_rz` (every force of a projected node with the mean of
+    its old and new velocity; the axis once). ``work`` (5) receives the corrections (stress, viscous,
+    hourglass, gravity) and the contact's work on the soil. Returns (the largest (|f_t| − μ f_n)/f_n, −inf
+    without contact; whether a friction force acts without a normal one; Σ f_n)."""
+    nr, nt, nz = mass.shape
+    nz1 = nz + 1
+    for i in range(ia + 1):
+        for j in range(nt + 1):
+            for k in range(kc, nz1):
+                for d in range(3):
+                    v_trial[i, j, k, d] = v[i, j, k, d]
+    project_pile_cyl(ia, kc, nmass, v, fix, mtiny, vp, vs, mu, mu_b, rim, dt, fn, ft, out)
+    if rim == 3:
+        corner_cyl(ia, kc, cf, mass, v, v_old, fix, mtiny, gravity, vp, vs[kc], mu, mu_b, dt, corner, fn, ft, out, cw)
+        for j in range(nt + 1):
+            for d in range(3):
+                v_trial[ia, j, kc, d] = v[ia, j, kc, d]
+    worst = -np.inf
+    stray = False
+    fsum = 0.0
+    for j in range(nt + 1):
+        for k in range(nz1):
+            if fn[j, k] > 0.0:
+                worst = max(worst, (abs(ft[j, k]) - mu * fn[j, k]) / fn[j, k])
+            elif ft[j, k] != 0.0:
+                stray = True
+            fsum += fn[j, k]
+    for d in range(5):
+        work[d] = 0.0
+    h = 0.5 * dt
+    for i in range(ia + 1):
+        for j in range(nt + 1 if i > 0 else 1):
+            for k in range(kc, nz1):
+                m = nmass[i, j, k]
+                if m <= mtiny:
+                    continue
+                d0 = v[i, j, k, 0] - v_trial[i, j, k, 0]
+                d1 = v[i, j, k, 1] - v_trial[i, j, k, 1]
+                d2 = v[i, j, k, 2] - v_trial[i, j, k, 2]
+                if d0 == 0.0 and d1 == 0.0 and d2 == 0.0:
+                    continue
+                g = _node_force(i, j, k, cf, nr, nt, nz)
+                work[0] -= (g[0] * d0 + g[1] * d1 + g[2] * d2) * h
+                work[1] -= (g[3] * d0 + g[4] * d1 + g[5] * d2) * h
+                work[2] -= (g[6] * d0 + g[7] * d1 + g[8] * d2) * h
+                work[3] -= m * gravity * d2 * h
+                work[4] += 0.5 * m * (d0 * (v_old[i, j, k, 0] + v[i, j, k, 0]) + d1 * (v_old[i, j, k, 1] + v[i, j, k, 1])
+                                      + d2 * (v_old[i, j, k, 2] + v[i, j, k, 2]))  # fmt: skip
+    if rim == 3:
+        for d in range(5):
+            work[d] += cw[d]
+    return worst, stray, fsum
+
+
+class CylindricalPileContact(AxisymmetricPileContact):
+    """Contact of a flat-based pile on the axis with a :class:`~geocel.solver.cylindrical_field.CylindricalField`
+    (module docstring); the r–z contact's geometry, frame and outputs (``qb``, ``qs``, ``base_force`` and
+    ``shaft_force`` of the whole pile), its steps on every node line. ``rim``: "corner" (the pile's frame),
+    "base" or "shaft"."""
+
+    def __init__(
+        self, field, pile: RigidPileRZ | PileBody, friction: float, base_friction: float = 0.0, rim: str = "base"
+    ) -> None:
+        if rim not in RIM_OPTIONS_CYL:
+            raise ValueError(f"rim = {rim!r}: choose one of {', '.join(RIM_OPTIONS_CYL)}")
+        g = field.grid
+        super().__init__(_LineView(field), pile, friction, base_friction, rim)
+        self.field = field
+        field.contact = self
+        nt1, nz1 = g.ntheta + 1, g.nz + 1
+        #: the whole pile's forces per force of the modelled sector
+        self.sector_scale = 2.0 * math.pi / g.angle
+        #: per shaft node (line j, row k), the last step's normal and vertical friction force on the pile (N,
+        #: the sector's)
+        self.line_normal = np.zeros((nt1, nz1))
+        self.line_friction = np.zeros((nt1, nz1))
+        self._v_old = np.zeros((self.ia + 1, nt1, nz1, 3))
+        self._v_trial = np.zeros((self.ia + 1, nt1, nz1, 3))
+        self._corner = np.zeros((nt1, 4))
+        self._v_ring: np.ndarray | None = None
+        self._u_in = np.zeros(nt1)
+        self._u_B = np.zeros(nt1)
+
+    def follow_pile(self) -> None:
+        super().follow_pile()
+
+    def pile_fraction(self, z_base: float | None = None) -> np.ndarray:
+        """Fraction of every cell inside the pile (nr, nθ, nz)."""
+        g = self.field.grid
+        zb = self.z_base_grid if z_base is None else z_base
+        out = np.zeros(g.shape)
+        out[: self.ia] = np.clip((g.z[1:] - zb) / g.hz, 0.0, 1.0)[None, None, :]
+        return out
+
+    def wish_in_place(self) -> float:
+        """As :meth:`AxisymmetricPileContact.wish_in_place`; returns the removed soil volume of the whole body (m³)."""
+        f = self.field
+        before = float(f.Vs.sum())
+        super().wish_in_place()
+        return self.sector_scale * (before - float(f.Vs.sum())) / (2.0 * math.pi)
+
+    def soil_inside(self) -> float:
+        """Soil volume inside the pile (m³, the whole body), with the pile where it was at the last remap."""
+        return super().soil_inside() / (2.0 * math.pi) * self.sector_scale
+
+    # --- the step -----------------------------------------------------------------------------------------
+    def before_nodes(self, dt: float | None = None) -> None:
+        f = self.field
+        if self._z_frame is not None and dt is not None:
+            f.frame_velocity = (self.z_base - f.frame_offset - self._z_frame) / dt
+            self._kc = kc = int(np.searchsorted(self._z_nodes, self._z_frame + self._row_tol, "right") - 1)
+        else:
+            if self.rim == "corner":
+                raise ValueError('rim = "corner" needs the pile\'s frame ([domain] frame = "pile", follow_pile())')
+            self._kc = kc = self.base_row()
+        if self._v_ring is not None:  # the nodal pass works on the corner ring's mean velocities
+            f.v[self.ia, :, kc, 0] = self._v_ring[:, 0]
+            f.v[self.ia, :, kc, 2] = self._v_ring[:, 1]
+            self._v_ring = None
+        self._v_old[:, :, kc:] = f.v[: self.ia + 1, :, kc:]
+
+    def apply(self, dt: float) -> None:
+        f = self.field
+        if self._kc < 0:
+            self.before_nodes(dt)
+        kc, ia = self._kc, self.ia
+        self._kc = -1
+        out = self._out
+        s = self.pile.surface()
+        vp = float(s.layer_v[0, 2])
+        if s.layer_z.shape[0] == 1:
+            vs = self._vs
+            vs.fill(vp)
+        else:
+            vs = np.interp(f.grid.z, s.layer_z, s.layer_v[:, 2])
+        w = self._work
+        worst, stray, fsum = contact_step_cyl(
+            ia, kc, f._force_factors, f.mass, f.nmass, f.v, f.fix, f.mass_tiny, f.gravity, vp, vs, self.mu,
+            self.mu_base, self._rim_code, dt, self._v_old, self._v_trial, self.line_normal, self.line_friction, out,
+            w, self._corner, self._cw,
+        )  # fmt: skip
+        if worst > -math.inf:
+            self.worst_friction_excess = max(self.worst_friction_excess, worst)
+            if worst > 1e-9:
+                raise RuntimeError(f"shaft friction exceeds μ × normal force by {worst:.3g} (relative)")
+        elif stray:
+            raise RuntimeError("shaft friction without a normal force")
+        sc = self.sector_scale
+        self.base_force[:] = sc * out[0], sc * out[1]
+        self.shaft_force[:] = sc * fsum, sc * out[3]
+        # per node row, the ring's forces as r–z's per radian (the sector's sum / Θ): shaft_pressure, the level load
+        self.shaft_normal[:] = self.line_normal.sum(axis=0) / f.grid.angle
+        self.shaft_friction[:] = self.line_friction.sum(axis=0) / f.grid.angle
+        self.contact_nodes = int(out[5])
+        self.pile.load = self._level_load(s, kc, self._v_trial[:, :, kc:], dt)
+        self._pile_motion += (vp - f.frame_velocity) * dt
+        if self.rim == "corner":
+            c = self._corner
+            self._v_ring = np.stack((f.v[ia, :, kc, 0], f.v[ia, :, kc, 2]), axis=-1)
+            # the cells and the mesh motion see (v_r^A, v_z^out) at the ring's nodes; the cells left of it v_z^in,
+            # the cells beside the shaft v_r^B
+            f.v[ia, :, kc, 0] = c[:, 3] - c[:, 1]
+            f.v[ia, :, kc, 2] = c[:, 2] + c[:, 0]
+            f.split_ring = (ia, kc)
+            f.split_z[:] = c[:, 2]
+            f.split_r[:] = c[:, 3]
+            self._u_in += (c[:, 2] - f.frame_velocity) * dt
+            self._u_B += c[:, 3] * dt
+            f.kinetic_correction = float(self._cw[5])
+        e = f.energy
+        e["internal"] += w[0]
+        e["viscous"] += w[1]
+        e["hourglass"] += w[2]
+        e["gravity_work"] += w[3]
+        e["external_work"] += w[3] + w[4]
+        self.soil_work += w[4]
+        self.friction_work += out[4] * dt - w[4]
+
+    def _level_load(self, s: Surface, kc: int, v_trial: np.ndarray, dt: float) -> ContactLoad:
+        """As :meth:`AxisymmetricPileContact._level_load`, with the ring's forces and masses summed over the
+        node lines."""
+        f = self.field
+        z = f.grid.z
+        lz = s.layer_z
+        nl = lz.shape[0]
+        scale = self.sector_scale / self.pile.symmetry_factor
+        if nl == 1:
+            lo = np.zeros(z.shape[0], dtype=np.int64)
+            wt = np.zeros(z.shape[0])
+        else:
+            lo = np.clip(np.searchsorted(lz, z, "right") - 1, 0, nl - 2)
+            wt = np.clip((z - lz[lo]) / (lz[lo + 1] - lz[lo]), 0.0, 1.0)
+        hi = np.minimum(lo + 1, nl - 1)
+        fn, ft = self.line_normal, self.line_friction
+        ia = self.ia
+        stick = (fn > 0.0) & (np.abs(ft) < self.mu * fn * (1.0 - 1e-12)) & ~f.fix[ia, :, :, 2].astype(bool)
+        m_shaft = np.where(stick, f.nmass[ia], 0.0)
+        if self.rim == "corner":  # (the outer half only)
+            m_out = 0.125 * (f.mass[ia, :, kc - 1] + f.mass[ia, :, kc])
+            m_ring = np.zeros(f.grid.ntheta + 1)
+            m_ring[:-1] += m_out
+            m_ring[1:] += m_out
+            m_shaft[:, kc] = np.where(stick[:, kc], m_ring, 0.0)
+        ftk, fnk, mk = ft.sum(axis=0), fn.sum(axis=0), m_shaft.sum(axis=0)
+        layer = np.zeros((nl, 4))
+        tied = np.zeros((nl, 2))
+        for col, val in ((0, ftk), (1, -fnk)):
+            layer[:, col] = np.bincount(lo, (1.0 - wt) * val, nl) + np.bincount(hi, wt * val, nl)
+        tied[:, 0] = np.bincount(lo, (1.0 - wt) * mk, nl) + np.bincount(hi, wt * mk, nl)
+        out = self._out
+        layer[0, 2] = out[1]
+        layer[0, 3] = out[0]
+        moved = f.v[: ia + 1, :, kc:, 2] != v_trial[:, :, :, 2]
+        moved[ia, :, 1 if self.rim != "shaft" else 0 :] = False
+        moved[0, 1:] = False  # (the axis once)
+        tied[0, 1] = float(f.nmass[: ia + 1, :, kc:][moved].sum())
+        base = np.array([0.0, 0.0, out[1]])
+        shaft = np.array([0.0, 0.0, out[3]])
+        return ContactLoad(scale * layer, scale * base, scale * shaft, scale * tied, dt)
+
+    def before_remap(self, displacement: np.ndarray) -> None:
+        """No inward mesh motion through the shaft's faces and none upwards relative to the pile above its base
+        (:meth:`AxisymmetricPileContact.before_remap`), on every node line."""
+        ia, kc = self.ia, self.base_row()
+        self._z_remap = self.z_base_grid
+        corner = self.rim == "corner"
+        col = displacement[ia, :, kc + 1 if corner else kc :, 0]
+        neg = col < 0.0
+        if neg.any():
+            self.clamped_motion -= float(col[neg].sum())
+            col[neg] = 0.0
+        up = displacement[: ia + 1, :, kc + 1 :, 2] - self._pile_motion
+        up[ia, :, 0 if self._z_frame is not None else 1 :] = 0.0
+        pos = (up > 0.0) & (self.field.nmass[: ia + 1, :, kc + 1 :] > self.field.mass_tiny)
+        if pos.any():
+            self.clamped_motion += float(up[pos].sum())
+            displacement[: ia + 1, :, kc + 1 :, 2] -= np.where(pos, up, 0.0)
+        lag = displacement[ia, :, kc, 2] - self._pile_motion
+        if self.rim == "shaft" and (lag > 0.0).any():
+            self.clamped_motion += float(lag[lag > 0.0].sum())
+            displacement[ia, :, kc, 2] -= np.maximum(lag, 0.0)
+        self._pile_motion = 0.0
+        f = self.field
+        if corner:
+            f.remap_split_z[:] = self._u_in
+            f.remap_split_r[:] = self._u_B
+            self._u_in[:] = 0.0
+            self._u_B[:] = 0.0
+            if self._v_ring is not None:  # the remap carries the nodes' momentum
+                f.v[ia, :, kc, 0] = self._v_ring[:, 0]
+                f.v[ia, :, kc, 2] = self._v_ring[:, 1]
+                self._v_ring = None
+
+    def shaft_pressure(self) -> np.ndarray:
+        """Normal stress on the shaft at every node row (Pa, ≥ 0), the ring's mean."""
+        return super().shaft_pressure()
+
+    def state_arrays(self) -> dict[str, np.ndarray]:  # pragma: no cover - not wired into runs yet
+        raise NotImplementedError("restarts of the cylindrical model are not supported yet")
+
+
+class _LineView:
+    """What :class:`AxisymmetricPileContact`'s constructor reads of a field (the grid's r and z, the frame's
+    offset), for a cylindrical field."""
+
+    def __init__(self, field) -> None:
+        self.grid = field.grid
+        self.frame_offset = field.frame_offset
+        self.contact = None
