@@ -145,12 +145,23 @@ class Domain(_Table):
         1.15, ge=1.0, le=2.0, description="largest ratio of neighbouring cell sizes outside the fine zone, -"
     )
     max_size: float | None = Field(None, gt=0.0, description="largest cell size, m (None: no limit)")
-    layout: Literal["tensor", "nested"] = Field(
+    layout: Literal["tensor", "nested", "cylindrical"] = Field(
         "tensor",
         description="3D grid layout: tensor (graded edges in x, y, z: the fine spacing runs through the whole "
-        "container in each direction) or nested (2:1 columns: boxes of fine_size, 2 fine_size, 4 fine_size … "
+        "container in each direction), nested (2:1 columns: boxes of fine_size, 2 fine_size, 4 fine_size … "
         "cells in plan around the axis, each `buffer` of its cells wider than the finer one, all on the graded "
-        'z edges; far fewer cells at the same fine size; docs/numerics.md, "Nested 2:1 columns")',
+        'z edges; far fewer cells at the same fine size; docs/numerics.md, "Nested 2:1 columns") or cylindrical '
+        "(experimental: the r–z grid turned round the pile's axis in `theta_cells` sectors per quarter turn, "
+        "quarter and half models; the shaft is a node ring and the base a node row, so the r–z model's split "
+        "corner carries over, and a vertically loaded pile gives the r–z result; flat-based piles whose radius is "
+        'a multiple of fine_size; docs/numerics.md, "The cylindrical layout")',
+    )
+    theta_cells: int | None = Field(
+        None,
+        ge=1,
+        le=256,
+        description="cylindrical layout: sectors per quarter turn, - (None: the arc of a sector at the pile's radius "
+        "about fine_size, at least 2)",
     )
     buffer: int = Field(
         4,
@@ -169,12 +180,14 @@ class Domain(_Table):
 
     @model_validator(mode="after")
     def _check(self) -> Domain:
-        if self.layout == "nested" and self.symmetry == "axisymmetric":
+        if self.layout != "tensor" and self.symmetry == "axisymmetric":
             raise _invalid(
                 ("layout",),
                 self.layout,
-                'nested columns are a 3D layout (symmetry = "axisymmetric" has its own grid)',
+                f'{self.layout} is a 3D layout (symmetry = "axisymmetric" has its own grid)',
             )
+        if self.layout == "cylindrical" and self.symmetry == "full":
+            raise _invalid(("layout",), self.layout, 'the cylindrical layout has quarter and half models only for now')
         if self.fine_size >= self.radius:
             raise _invalid(("fine_size",), self.fine_size, f"must be smaller than radius = {self.radius} m")
         if self.fine_size >= self.soil_depth:
@@ -579,7 +592,7 @@ class Scenario(_Table):
             self.solver.remap_courant = 0.0
         if (
             self.domain.frame == "pile"
-            and self.domain.symmetry == "axisymmetric"
+            and (self.domain.symmetry == "axisymmetric" or self.domain.layout == "cylindrical")
             and "rim" not in self.contact.model_fields_set
         ):
             # the node under the pile's corner split (docs/numerics.md, "The pile's frame"): with one node the
@@ -595,12 +608,25 @@ class Scenario(_Table):
             self._check_void_ratios()
         if self.domain.frame == "pile" and self.pile is None:
             raise _invalid(("domain", "frame"), "pile", "the pile's frame needs a [pile]")
+        if self.domain.layout == "cylindrical" and getattr(self.soil.material, "nonlocal_length", 0.0) > 0.0:
+            raise _invalid(
+                ("soil", "material", "nonlocal_length"),
+                self.soil.material.nonlocal_length,
+                "the cylindrical layout has no non-local sand yet: set it to 0",
+            )
         if self.pile is not None:
             self._check_pile_geometry()
-            if self.domain.symmetry == "axisymmetric":
+            if self.domain.symmetry == "axisymmetric" or self.domain.layout == "cylindrical":
                 self._check_axisymmetric_pile()
             elif self.contact.rim != "base":
                 raise _invalid(("contact", "rim"), self.contact.rim, 'an option of symmetry = "axisymmetric"')
+            if self.domain.layout == "cylindrical":
+                if self.contact.rim == "split":
+                    raise _invalid(("contact", "rim"), "split", 'the cylindrical layout has "corner", "base", "shaft"')
+                if self.contact.formulation != "band":
+                    raise _invalid(
+                        ("contact", "formulation"), self.contact.formulation, 'the cylindrical layout has "band" only'
+                    )
             if self.contact.rim == "corner" and self.domain.frame != "pile":
                 raise _invalid(("contact", "rim"), "corner", 'needs [domain] frame = "pile"')
             if self.contact.friction is None and isinstance(self.soil.material, Elastic):
@@ -700,10 +726,9 @@ class Scenario(_Table):
         (the fine cells from the axis are fine_size wide, so the radius must be a whole number of them)."""
         assert self.pile is not None
         pile, dom = self.pile, self.domain
+        mode = 'layout = "cylindrical"' if dom.layout == "cylindrical" else 'symmetry = "axisymmetric"'
         if pile.tip != "flat":
-            raise _invalid(
-                ("pile", "tip"), pile.tip, 'symmetry = "axisymmetric" supports only a flat tip for now'
-            )
+            raise _invalid(("pile", "tip"), pile.tip, f"{mode} supports only a flat tip for now")
         a = 0.5 * pile.diameter
         n = a / dom.fine_size
         if abs(n - round(n)) > 1e-6 * max(n, 1.0) or round(n) < 1:
@@ -711,7 +736,7 @@ class Scenario(_Table):
             raise _invalid(
                 ("domain", "fine_size"),
                 dom.fine_size,
-                f"the pile radius {a:g} m must lie on a node line of the axisymmetric grid: fine_size must be "
+                f"the pile radius {a:g} m must lie on a node line of the grid ({mode}): fine_size must be "
                 f"radius/n for a whole n (cells per pile radius), e.g. {fits} (n = 2 … 6)",
             )
 

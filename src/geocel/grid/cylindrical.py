@@ -120,6 +120,10 @@ class CylindricalGrid:
         arcs[0] = self.r[1] * self.dtheta
         return float(min(self.hr.min(), self.hz.min(), arcs.min()))
 
+    def smallest_cell(self) -> float:
+        """:meth:`smallest_length` (the backends' name)."""
+        return self.smallest_length()
+
     def describe(self) -> str:
         return (
             f"cylindrical grid {self.nr}×{self.ntheta}×{self.nz} = {self.n_cells} cells over "

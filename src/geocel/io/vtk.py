@@ -2,6 +2,8 @@
 
 - :func:`write_rectilinear`: the Eulerian grid (``.vtr``), node coordinates per axis, cell and node data.
 - :func:`write_rectilinear_rz`: the r–z plane of an axisymmetric model as a 2D grid (``.vtr``, x = r, y = 0).
+- :func:`write_structured`: a curvilinear grid (``.vts``: the cylindrical layout's sectors), node coordinates
+  per node.
 - :func:`write_unstructured_hex`: Lagrangian bodies of 8-node hexahedra (``.vtu``).
 - :class:`PvdSeries`: the ParaView collection file listing the snapshots by time (and part/body).
 
@@ -30,6 +32,7 @@ __all__ = [
     "PvdSeries",
     "write_rectilinear",
     "write_rectilinear_rz",
+    "write_structured",
     "write_unstructured_hex",
 ]
 
@@ -96,6 +99,32 @@ def write_rectilinear(
     cd = _prepare(cell_data, cells, "cell array")
     pd = _prepare(point_data, nodes, "point array")
     final = Path(str(path_without_ext) + ".vtr")
+    final.parent.mkdir(parents=True, exist_ok=True)
+    tmp = str(path_without_ext) + ".tmp"
+    written = gridToVTK(tmp, xs, ys, zs, cellData=cd or None, pointData=pd or None)
+    return _finish(written, final)
+
+
+def write_structured(
+    path_without_ext: str | Path,
+    x: np.ndarray,
+    y: np.ndarray,
+    z: np.ndarray,
+    cell_data: Mapping[str, np.ndarray],
+    point_data: Mapping[str, np.ndarray] | None = None,
+) -> Path:
+    """Write a structured (curvilinear) grid (``.vts``) and return its path.
+
+    ``x, y, z``: node coordinates, m, each of shape (n1+1, n2+1, n3+1). ``cell_data``: arrays of shape
+    (n1, n2, n3[, 3 | 6]); ``point_data``: (n1+1, n2+1, n3+1[, 3 | 6])."""
+    xs, ys, zs = (np.ascontiguousarray(np.asarray(c, dtype=np.float64)) for c in (x, y, z))
+    if xs.ndim != 3 or xs.shape != ys.shape or xs.shape != zs.shape or min(xs.shape) < 2:
+        raise ValueError("x, y, z must be 3-D node coordinate arrays of one shape, ≥ 2 nodes per direction")
+    nodes = xs.shape
+    cells = tuple(n - 1 for n in nodes)
+    cd = _prepare(cell_data, cells, "cell array")
+    pd = _prepare(point_data, nodes, "point array")
+    final = Path(str(path_without_ext) + ".vts")
     final.parent.mkdir(parents=True, exist_ok=True)
     tmp = str(path_without_ext) + ".tmp"
     written = gridToVTK(tmp, xs, ys, zs, cellData=cd or None, pointData=pd or None)

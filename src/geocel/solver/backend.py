@@ -7,7 +7,9 @@ talk to a backend only; the physics stays in the fields and contacts it wraps. T
 * :class:`CartesianBackend`: the 3D grid (quarter, half or full model), :class:`~geocel.solver.field.SoilField`
   with any pile (:mod:`geocel.bodies.pile`) and :class:`~geocel.contact.coupling.ContactCoupling`;
 * :class:`AxisymmetricBackend`: the r–z plane, :class:`~geocel.solver.axisym_field.AxisymmetricField` with the
-  rigid pile of :mod:`geocel.contact.axisym` or a solid or coupled pile body (issue 17).
+  rigid pile of :mod:`geocel.contact.axisym` or a solid or coupled pile body (issue 17);
+* :class:`~geocel.solver.cylindrical_backend.CylindricalBackend` (``[domain] layout = "cylindrical"``): the r–z
+  grid turned round the axis in sectors, with the r–z model's piles (experimental).
 
 Units of what a backend reports: forces returned by :meth:`Backend.advance` × ``force_factor`` are those on the
 whole pile (N); the field's energies, masses and volumes × ``extent_factor`` are those the outputs report (the
@@ -55,6 +57,8 @@ class Backend:
     symmetry: str = ""
     force_factor: float = 1.0
     extent_factor: float = 1.0
+    #: which calibration of the inertia check applies (geocel.solver.quasi_static): "3d" or "axisymmetric"
+    inertia_mode: str = "3d"
 
     def __init__(self, scenario: Scenario) -> None:
         self.scenario = scenario
@@ -429,6 +433,7 @@ class AxisymmetricBackend(Backend):
 
     symmetry = "axisymmetric"
     extent_factor = 2.0 * math.pi
+    inertia_mode = "axisymmetric"
 
     def __init__(self, scenario: Scenario) -> None:
         from ..contact.axisym import AxisymmetricPileContact, RigidPileRZ
@@ -644,6 +649,10 @@ def build_backend(scenario: Scenario) -> Backend:
     pile wished in place to its initial embedment and the contact."""
     if scenario.domain.symmetry == "axisymmetric":
         return AxisymmetricBackend(scenario)
+    if scenario.domain.layout == "cylindrical":
+        from .cylindrical_backend import CylindricalBackend
+
+        return CylindricalBackend(scenario)
     if scenario.domain.layout == "nested":
         return NestedBackend(scenario)
     return CartesianBackend(scenario)

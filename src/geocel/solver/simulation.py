@@ -243,7 +243,8 @@ class Simulation:
         self.pile_steps = 0
         #: one line per event a user should know of (checkpoint fallbacks, allowed changes, restarts)
         self.notes: list[str] = []
-        if self.has_pile and scenario.domain.symmetry != "axisymmetric" and scenario.domain.frame != "pile":
+        cartesian = scenario.domain.symmetry != "axisymmetric" and scenario.domain.layout != "cylindrical"
+        if self.has_pile and cartesian and scenario.domain.frame != "pile":
             tip = scenario.pile.initial_embedment + ld.penetration
             if tip > UNCONVERGED_3D_DEPTH:
                 self.notes.append(
@@ -252,7 +253,13 @@ class Simulation:
                     '(docs/validation.md, "To 9 m"); for a vertically loaded pile the r–z model '
                     '([domain] symmetry = "axisymmetric") converges to 9 m'
                 )
-        if self.has_pile and scenario.domain.symmetry != "axisymmetric" and scenario.domain.frame == "pile":
+        if scenario.domain.layout == "cylindrical":
+            self.notes.append(
+                "the cylindrical layout is experimental: its soil step and pile contact reproduce the r–z model's to "
+                "round-off when nothing depends on θ (tests/test_cylindrical.py); no non-local sand yet, and the "
+                'sectors next to the axis set the stable Δt (docs/numerics.md, "The cylindrical layout")'
+            )
+        if self.has_pile and cartesian and scenario.domain.frame == "pile":
             self.notes.append(
                 "the 3D pile's frame is experimental: its base's rim is not split as in r–z, and its q_b reaches "
                 "the r–z model's from below only at fine cells (MPE over 0.3–1 m 67 / 16 / 22 / 8 % at 2 / 3 / 4 / 6 "
@@ -556,7 +563,7 @@ class Simulation:
             "diagnostic": self.diagnostic,
             "quasi_static": _verdict(self.max_energy_ratio),
             "max_inertia_ratio": self.max_inertia_ratio if self.max_inertia_ratio >= 0.0 else None,
-            "inertia_check": _inertia_verdict(self.max_inertia_ratio, self.backend.symmetry),
+            "inertia_check": _inertia_verdict(self.max_inertia_ratio, self.backend.inertia_mode),
             "energy_check_from_penetration": self._energy_check_start() if self.has_pile else 0.0,
             "restarts": self.restarts,
             "notes": self.notes,
