@@ -160,8 +160,9 @@ class Domain(_Table):
         None,
         ge=1,
         le=256,
-        description="cylindrical layout: sectors per quarter turn, - (None: the arc of a sector at the pile's radius "
-        "about fine_size, at least 2)",
+        description="cylindrical layout: sectors per quarter turn, - (None: the power of two nearest to π/2 × pile "
+        "radius / fine_size, at least 2; towards the axis the sectors are tied in groups of 2, 4 …, powers of two "
+        "dividing theta_cells, so that no arc is shorter than half a cell, except inside the pile's radius)",
     )
     buffer: int = Field(
         4,

@@ -37,15 +37,21 @@ RIM_OPTIONS_CYL = ("shaft", "base", "corner")
 
 
 @njit(**KERNEL_OPTIONS)
-def _node_force(i, j, k, cf, nr, nt, nz):
-    """:func:`gather_node_force_cyl`; on the axis the sum over every line's copy (one node)."""
-    if i > 0:
-        return gather_node_force_cyl(i, j, k, cf, nr, nt, nz)
+def _node_force(i, j, k, cf, ties, nr, nt, nz):
+    """The forces on independent node (i, j, k) as the nodal pass applies them: :func:`gather_node_force_cyl` with
+    the shares of the slaved corners beside it (tied sectors); on the axis the sum over every line's copy."""
     g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    for jj in range(nt + 1):
-        h = gather_node_force_cyl(0, jj, k, cf, nr, nt, nz)
-        g = (g[0] + h[0], g[1] + h[1], g[2] + h[2], g[3] + h[3], g[4] + h[4], g[5] + h[5], g[6] + h[6], g[7] + h[7],
-             g[8] + h[8])  # fmt: skip
+    if i == 0:
+        lo, hi, step, M = 0, nt, 1, 0
+    else:
+        M = ties[i - 1]
+        step = ties[min(np.int64(i), nr - 1)]
+        lo, hi = max(j - M + step, 0), min(j + M - step, nt)
+    for jj in range(lo, hi + 1, step):
+        w = 1.0 if (i == 0 or jj == j) else 1.0 - abs(jj - j) / M
+        h = gather_node_force_cyl(i, jj, k, cf, ties, nr, nt, nz)
+        g = (g[0] + w * h[0], g[1] + w * h[1], g[2] + w * h[2], g[3] + w * h[3], g[4] + w * h[4], g[5] + w * h[5],
+             g[6] + w * h[6], g[7] + w * h[7], g[8] + w * h[8])  # fmt: skip
     return g
 
 
@@ -173,7 +179,9 @@ def project_pile_cyl(ia, kc, nmass, v, fix, mtiny, vp, vs, mu, mu_b, rim, dt, fn
 
 
 @njit(**KERNEL_OPTIONS)
-def corner_cyl(ia, kc, cf, mass, v, v_old, fix, mtiny, gravity, vp, vs_k, mu, mu_b, dt, corner, fn, ft, out, cw):
+def corner_cyl(
+    ia, kc, cf, ties, mass, v, v_old, fix, mtiny, gravity, vp, vs_k, mu, mu_b, dt, corner, fn, ft, out, cw
+):  # fmt: skip
     """The ring of nodes (i_a, ·, k_c) split at the pile's corner (module docstring; on each line j as
     :func:`geocel.contact.axisym.corner_rz`, with the masses and forces of the cells on both sides of the
     line). ``corner`` (nθ+1, 4): per line (w_z, w_r) the parts' relative velocities, updated, and (v_z^in,
@@ -199,7 +207,7 @@ def corner_cyl(ia, kc, cf, mass, v, v_old, fix, mtiny, gravity, vp, vs_k, mu, mu
             corner[j, 2] = v[ia, j, kc, 2]
             corner[j, 3] = v[ia, j, kc, 0]
             continue
-        g = gather_node_force_cyl(ia, j, kc, cf, nr, nt, nz)
+        g = gather_node_force_cyl(ia, j, kc, cf, ties, nr, nt, nz)
         fzO, frB = _outer_forces(ia, j, kc, cf, nt)
         vr_t = v[ia, j, kc, 0]
         vz_t = v[ia, j, kc, 2]
@@ -264,8 +272,8 @@ def corner_cyl(ia, kc, cf, mass, v, v_old, fix, mtiny, gravity, vp, vs_k, mu, mu
 
 @njit(**KERNEL_OPTIONS)
 def contact_step_cyl(
-    ia, kc, cf, mass, nmass, v, fix, mtiny, gravity, vp, vs, mu, mu_b, rim, dt, v_old, v_trial, fn, ft, out, work,
-    corner, cw,
+    ia, kc, cf, ties, mass, nmass, v, fix, mtiny, gravity, vp, vs, mu, mu_b, rim, dt, v_old, v_trial, fn, ft, out,
+    work, corner, cw,
 ):  # fmt: skip
     """One step's contact (:func:`geocel.contact.axisym.contact_step_rz` on the cylindrical grid): keep the
     trial velocities of the nodes [0, i_a] × all lines × [k_c, nz], project, split the corner ring, and book
@@ -282,7 +290,9 @@ def contact_step_cyl(
                     v_trial[i, j, k, d] = v[i, j, k, d]
     project_pile_cyl(ia, kc, nmass, v, fix, mtiny, vp, vs, mu, mu_b, rim, dt, fn, ft, out)
     if rim == 3:
-        corner_cyl(ia, kc, cf, mass, v, v_old, fix, mtiny, gravity, vp, vs[kc], mu, mu_b, dt, corner, fn, ft, out, cw)
+        corner_cyl(
+            ia, kc, cf, ties, mass, v, v_old, fix, mtiny, gravity, vp, vs[kc], mu, mu_b, dt, corner, fn, ft, out, cw
+        )  # fmt: skip
         for j in range(nt + 1):
             for d in range(3):
                 v_trial[ia, j, kc, d] = v[ia, j, kc, d]
@@ -310,7 +320,7 @@ def contact_step_cyl(
                 d2 = v[i, j, k, 2] - v_trial[i, j, k, 2]
                 if d0 == 0.0 and d1 == 0.0 and d2 == 0.0:
                     continue
-                g = _node_force(i, j, k, cf, nr, nt, nz)
+                g = _node_force(i, j, k, cf, ties, nr, nt, nz)
                 work[0] -= (g[0] * d0 + g[1] * d1 + g[2] * d2) * h
                 work[1] -= (g[3] * d0 + g[4] * d1 + g[5] * d2) * h
                 work[2] -= (g[6] * d0 + g[7] * d1 + g[8] * d2) * h
@@ -336,6 +346,11 @@ class CylindricalPileContact(AxisymmetricPileContact):
             raise ValueError(f"rim = {rim!r}: choose one of {', '.join(RIM_OPTIONS_CYL)}")
         g = field.grid
         super().__init__(_LineView(field), pile, friction, base_friction, rim)
+        if g.ties[self.ia - 1] != 1:
+            raise ValueError(
+                f"the sectors next to the pile's shaft are tied ({g.ties[self.ia - 1]}): its node ring must be "
+                "independent (fewer sectors, or a smaller min_arc)"
+            )
         self.field = field
         field.contact = self
         nt1, nz1 = g.ntheta + 1, g.nz + 1
@@ -403,7 +418,7 @@ class CylindricalPileContact(AxisymmetricPileContact):
             vs = np.interp(f.grid.z, s.layer_z, s.layer_v[:, 2])
         w = self._work
         worst, stray, fsum = contact_step_cyl(
-            ia, kc, f._force_factors, f.mass, f.nmass, f.v, f.fix, f.mass_tiny, f.gravity, vp, vs, self.mu,
+            ia, kc, f._force_factors, f.grid.ties, f.mass, f.nmass, f.v, f.fix, f.mass_tiny, f.gravity, vp, vs, self.mu,
             self.mu_base, self._rim_code, dt, self._v_old, self._v_trial, self.line_normal, self.line_friction, out,
             w, self._corner, self._cw,
         )  # fmt: skip

@@ -62,36 +62,91 @@ HOURGLASS_STATE_CYL = 12
 FORCE_FACTORS_CYL = 27
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def _fold(buf, j, M):
+    """Hand the slaved node line j's entry of ``buf`` (·, n) to its two independent neighbours j₀ and j₀ + M by
+    the weights of the linear interpolation (the transpose of :func:`follow_masters`)."""
+    r = j % M
+    t = r / M
+    j0 = j - r
+    for d in range(buf.shape[1]):
+        x = buf[j, d]
+        buf[j0, d] += (1.0 - t) * x
+        buf[j0 + M, d] += t * x
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
-def node_mass_cyl(mass, out, k1=-1):
-    """Lumped nodal mass: an eighth of each adjacent cell's mass; the axis nodes (0, j, k) of every j hold the
-    sum over j (they are one node). ``k1`` ≥ 0: the node rows below k1 only."""
+def node_mass_cyl(mass, out, ties, k1=-1):
+    """Lumped nodal mass: an eighth of each adjacent cell's mass (a tied group is one cell; its slots' masses
+    summed), the masses of the slaved node lines handed to the independent ones (:func:`_fold`; the slaved get 0);
+    the axis nodes (0, j, k) of every j hold the whole axis node's mass (they are one node). ``k1`` ≥ 0: the node
+    rows below k1 only."""
     nr, nt, nz = mass.shape
     k1 = nz + 1 if k1 < 0 else k1
     for i in prange(nr + 1):
-        for j in range(nt + 1):
-            for k in range(k1):
+        buf = np.empty((nt + 1, 1))
+        mo = ties[min(np.int64(i), nr - 1)]  # the cells of ring i have their corners at multiples of it
+        M = ties[np.int64(i) - 1] if i > 0 else nt
+        for k in range(k1):
+            for j in range(nt + 1):
+                buf[j, 0] = 0.0
+            if i == 0:
                 s = 0.0
-                for ci in range(max(i - 1, 0), min(i + 1, nr)):
-                    for cj in range(max(j - 1, 0), min(j + 1, nt)):
-                        for ck in range(max(k - 1, 0), min(k + 1, nz)):
-                            s += mass[ci, cj, ck]
-                out[i, j, k] = 0.125 * s
-    for k in range(k1):
-        s = 0.0
-        for j in range(nt + 1):
-            s += out[0, j, k]
-        for j in range(nt + 1):
-            out[0, j, k] = s
+                for cj in range(nt):
+                    for ck in range(max(k - 1, 0), min(k + 1, nz)):
+                        s += mass[0, cj, ck]
+                for j in range(nt + 1):
+                    out[0, j, k] = 0.25 * s
+                continue
+            for j in range(0, nt + 1, mo):
+                s = 0.0
+                for ci in range(i - 1, min(i + 1, nr)):
+                    m = ties[ci]
+                    if j % m != 0:
+                        continue
+                    for cj0 in (j - m, j):
+                        if cj0 < 0 or cj0 >= nt:
+                            continue
+                        for cj in range(cj0, cj0 + m):
+                            for ck in range(max(k - 1, 0), min(k + 1, nz)):
+                                s += mass[ci, cj, ck]
+                buf[j, 0] = 0.125 * s
+            if M > mo:
+                for j in range(0, nt + 1, mo):
+                    if j % M != 0:
+                        _fold(buf, j, M)
+                        buf[j, 0] = 0.0
+            for j in range(nt + 1):
+                out[i, j, k] = buf[j, 0]
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def follow_masters(v, node_factors):
+    """The slaved node lines (j not a multiple of M_i on node ring i ≥ 1) take the velocity interpolated linearly
+    in θ between their two independent neighbours (local components)."""
+    nr1, nt1, nz1, nd = v.shape
+    for i in prange(1, nr1):
+        M = node_factors[i]
+        if M == 1:
+            continue
+        for j in range(nt1):
+            r = j % M
+            if r == 0:
+                continue
+            t = r / M
+            j0 = j - r
+            for k in range(nz1):
+                for d in range(nd):
+                    v[i, j, k, d] = (1.0 - t) * v[i, j0, k, d] + t * v[i, j0 + M, k, d]
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
-def cell_force_factors_cyl(ci, cj, ck, gr_, gt_, gz_, nn_, Vs, mass, stress, q, hg, out):
-    """The corner-independent factors of cell (ci, cj, ck)'s nodal forces into ``out`` (27); ``gr_`` = 1/(4h_r),
-    ``gt_`` = 1/(4 r_c Δθ), ``nn_`` = 1/(8 r_c) per ring, ``gz_`` = 1/(4h_z) per row. With the corner's signs
+def cell_force_factors_cyl(ci, cj, ck, gr_, gt_, gz_, nn_, vs, mc, stress, q, hg, out):
+    """The corner-independent factors of cell (ci, cj, ck)'s nodal forces into ``out`` (27), its soil volume
+    ``vs`` and mass ``mc`` given (a tied group's sums over its slots); ``gr_`` = 1/(4h_r), ``gt_`` =
+    1/(4 r_c m Δθ), ``nn_`` = 1/(8 r_c) per ring, ``gz_`` = 1/(4h_z) per row. With the corner's signs
     ξ, η, ζ: f_σ = −(ξF0 + ηF1 + ζF2 + F3, ξF4 + ηF5 + ζF6 + F7, ξF8 + ηF9 + ζF10), f_q = (ξF11 + F12, ηF13,
     ζF14), f_hg,d = −(ξη F[15+d] + ηζ F[18+d] + ξζ F[21+d] + ξηζ F[24+d])."""
-    vs = Vs[ci, cj, ck]
     gr = gr_[ci]
     gt = gt_[ci]
     nn = nn_[ci]
@@ -116,16 +171,16 @@ def cell_force_factors_cyl(ci, cj, ck, gr_, gt_, gz_, nn_, Vs, mass, stress, q, 
     out[12] = pq * nn
     out[13] = pq * gt
     out[14] = pq * gz
-    mc = mass[ci, cj, ck]
     for a in range(4):
         for d in range(3):
             out[15 + 3 * a + d] = mc * hg[ci, cj, ck, a, d]
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
-def gather_node_force_cyl(i, j, k, cf, nr, nt, nz):
-    """Stress, viscous and hourglass forces on node (i, j, k) from its ≤ 8 cells' factors ``cf``, one flat
-    9-tuple (f_σ, f_q, f_hg)."""
+def gather_node_force_cyl(i, j, k, cf, ties, nr, nt, nz):
+    """Stress, viscous and hourglass forces on node (i, j, k) from the factors ``cf`` of the ≤ 8 cells it is a
+    corner of (a tied group of ring ci is one cell, its factors at its first slot; the node is its corner only
+    on a multiple of ``ties[ci]``), one flat 9-tuple (f_σ, f_q, f_hg)."""
     fs0 = 0.0
     fs1 = 0.0
     fs2 = 0.0
@@ -137,7 +192,12 @@ def gather_node_force_cyl(i, j, k, cf, nr, nt, nz):
     fh2 = 0.0
     for ci in range(max(i - 1, 0), min(i + 1, nr)):
         xi = 1.0 if ci < i else -1.0
-        for cj in range(max(j - 1, 0), min(j + 1, nt)):
+        m = ties[ci]
+        if j % m != 0:
+            continue
+        for cj in (j - m, j):
+            if cj < 0 or cj >= nt:
+                continue
             eta = 1.0 if cj < j else -1.0
             for ck in range(max(k - 1, 0), min(k + 1, nz)):
                 zeta = 1.0 if ck < k else -1.0
@@ -170,112 +230,140 @@ def _advance(m, o, f, fx, fix, vfix, gz_force, a_half, dt):
     return v, r
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def _update_node(i, j, k, m, g, v, fix, vfix, fext, reaction, gravity, a_half, dt, e):
+    """One independent node's central-difference update from its forces ``g`` (9-tuple) and mass m; its energy
+    terms are added to ``e`` (kinetic, stresses' work, viscous, hourglass, gravity, external)."""
+    fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2 = g
+    fgz = -m * gravity
+    o0 = v[i, j, k, 0]
+    o1 = v[i, j, k, 1]
+    o2 = v[i, j, k, 2]
+    x0 = fext[i, j, k, 0]
+    x1 = fext[i, j, k, 1]
+    x2 = fext[i, j, k, 2]
+    v0, r0 = _advance(m, o0, fs0 + fq0 + fh0, x0, fix[i, j, k, 0], vfix[i, j, k, 0], 0.0, a_half, dt)
+    v1, r1 = _advance(m, o1, fs1 + fq1 + fh1, x1, fix[i, j, k, 1], vfix[i, j, k, 1], 0.0, a_half, dt)
+    v2, r2 = _advance(m, o2, fs2 + fq2 + fh2, x2, fix[i, j, k, 2], vfix[i, j, k, 2], fgz, a_half, dt)
+    v[i, j, k, 0] = v0
+    v[i, j, k, 1] = v1
+    v[i, j, k, 2] = v2
+    reaction[i, j, k, 0] = r0
+    reaction[i, j, k, 1] = r1
+    reaction[i, j, k, 2] = r2
+    m0 = 0.5 * (o0 + v0)
+    m1 = 0.5 * (o1 + v1)
+    m2 = 0.5 * (o2 + v2)
+    mm = m0 * m0 + m1 * m1 + m2 * m2
+    e[0] += 0.5 * m * mm
+    e[1] -= (fs0 * m0 + fs1 * m1 + fs2 * m2) * dt
+    e[2] -= (fq0 * m0 + fq1 * m1 + fq2 * m2) * dt
+    e[2] += 2.0 * a_half / dt * m * mm * dt
+    e[3] -= (fh0 * m0 + fh1 * m1 + fh2 * m2) * dt
+    e[4] += fgz * m2 * dt
+    e[5] += ((x0 + r0) * m0 + (x1 + r1) * m1 + (x2 + r2) * m2) * dt
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
 def advance_nodes_cyl(
-    hr, hz, rc, dth, Vs, mass, stress, q, hg, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt, mtiny,
-    work,
+    hr, hz, rc, dth, ties, Vs, mass, stress, q, hg, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt,
+    mtiny, work,
 ):  # fmt: skip
     """v ← v + Δt f/m with stress, viscous, hourglass, gravity and external forces (N, local components); then
     the boundary conditions (fixed components take ``vfix``, their reaction m (v − v_free)/Δt goes to
     ``reaction``). ``damping`` α (1/s): the mass-proportional force −α m v̄ (dynamic relaxation), as in
     :func:`geocel.euler.axisym.advance_nodes_rz`. The axis nodes (0, j, k) of every j are one node (module
     docstring): forces summed over j, one update, the same velocity written to every j, the energies and the
-    z-reaction counted once (at j = 0). ``work``: scratch (nr, nθ, nz, :data:`FORCE_FACTORS_CYL`).
+    z-reaction counted once (at j = 0). With ``ties`` (:class:`geocel.grid.cylindrical.CylindricalGrid`) a tied
+    group is one cell, the forces of the slaved node lines go to the independent ones (:func:`_fold`, with their
+    masses in ``nmass``: :func:`node_mass_cyl`), and the slaved follow (:func:`follow_masters`; their external
+    forces and boundary conditions are not applied). ``work``: scratch (nr, nθ, nz, :data:`FORCE_FACTORS_CYL`).
 
     Returns (kinetic energy, work of the stresses, viscous dissipation, hourglass dissipation, work of gravity,
     work of the external forces and reactions), J, as the 3D and r–z kernels."""
     nr, nt, nz = Vs.shape
     cf = work
     gr_ = 0.25 / hr
-    gt_ = 0.25 / (rc * dth)
+    gt_ = 0.25 / (rc * dth * ties)
     nn_ = 0.125 / rc
     gz_ = 0.25 / hz
     for cij in prange(nr * nt):
         ci = cij // nt
         cj = cij % nt
+        mt = ties[ci]
+        if cj % mt != 0:
+            continue
         for ck in range(nz):
-            cell_force_factors_cyl(ci, cj, ck, gr_, gt_, gz_, nn_, Vs, mass, stress, q, hg, cf[ci, cj, ck])
+            vs = 0.0
+            mc = 0.0
+            for s in range(cj, cj + mt):
+                vs += Vs[ci, s, ck]
+                mc += mass[ci, s, ck]
+            cell_force_factors_cyl(ci, cj, ck, gr_, gt_, gz_, nn_, vs, mc, stress, q, hg, cf[ci, cj, ck])
     acc = np.empty((nr + 1, 6))
     a_half = 0.5 * damping * dt
     for i in prange(nr + 1):
-        ke = 0.0
-        wi = 0.0
-        wv = 0.0
-        wh = 0.0
-        wg = 0.0
-        wx = 0.0
-        jn = nt + 1 if i > 0 else 1  # the axis: one node per row
-        for j in range(jn):
-            for k in range(nz + 1):
-                m = nmass[i, j, k]
-                if i == 0:
-                    g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-                    for jj in range(nt + 1):
-                        h = gather_node_force_cyl(i, jj, k, cf, nr, nt, nz)
-                        g = (g[0] + h[0], g[1] + h[1], g[2] + h[2], g[3] + h[3], g[4] + h[4], g[5] + h[5],
-                             g[6] + h[6], g[7] + h[7], g[8] + h[8])  # fmt: skip
+        e = np.zeros(6)
+        buf = np.empty((nt + 1, 9))
+        mo = ties[min(np.int64(i), nr - 1)]
+        M = ties[np.int64(i) - 1] if i > 0 else nt
+        for k in range(nz + 1):
+            if i == 0:  # the axis: one node
+                g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+                for jj in range(0, nt + 1, mo):
+                    h = gather_node_force_cyl(0, jj, k, cf, ties, nr, nt, nz)
+                    g = (g[0] + h[0], g[1] + h[1], g[2] + h[2], g[3] + h[3], g[4] + h[4], g[5] + h[5],
+                         g[6] + h[6], g[7] + h[7], g[8] + h[8])  # fmt: skip
+                m = nmass[0, 0, k]
+                if m <= mtiny:
+                    for d in range(3):
+                        v[0, 0, k, d] = vfix[0, 0, k, d] if fix[0, 0, k, d] else 0.0
+                        reaction[0, 0, k, d] = 0.0
                 else:
-                    g = gather_node_force_cyl(i, j, k, cf, nr, nt, nz)
+                    _update_node(0, 0, k, m, g, v, fix, vfix, fext, reaction, gravity, a_half, dt, e)
+                for jj in range(1, nt + 1):
+                    for d in range(3):
+                        v[0, jj, k, d] = v[0, 0, k, d]
+                        reaction[0, jj, k, d] = 0.0
+                continue
+            for j in range(0, nt + 1, mo):
+                h = gather_node_force_cyl(i, j, k, cf, ties, nr, nt, nz)
+                for d in range(9):
+                    buf[j, d] = h[d]
+            if M > mo:
+                for j in range(0, nt + 1, mo):
+                    if j % M != 0:
+                        _fold(buf, j, M)
+            for j in range(0, nt + 1, M):
+                m = nmass[i, j, k]
                 if m <= mtiny:
                     for d in range(3):
                         v[i, j, k, d] = vfix[i, j, k, d] if fix[i, j, k, d] else 0.0
                         reaction[i, j, k, d] = 0.0
-                    if i == 0:
-                        for jj in range(1, nt + 1):
-                            for d in range(3):
-                                v[0, jj, k, d] = v[0, 0, k, d]
-                                reaction[0, jj, k, d] = 0.0
                     continue
-                fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2 = g
-                fgz = -m * gravity
-                o0 = v[i, j, k, 0]
-                o1 = v[i, j, k, 1]
-                o2 = v[i, j, k, 2]
-                x0 = fext[i, j, k, 0]
-                x1 = fext[i, j, k, 1]
-                x2 = fext[i, j, k, 2]
-                v0, r0 = _advance(m, o0, fs0 + fq0 + fh0, x0, fix[i, j, k, 0], vfix[i, j, k, 0], 0.0, a_half, dt)
-                v1, r1 = _advance(m, o1, fs1 + fq1 + fh1, x1, fix[i, j, k, 1], vfix[i, j, k, 1], 0.0, a_half, dt)
-                v2, r2 = _advance(m, o2, fs2 + fq2 + fh2, x2, fix[i, j, k, 2], vfix[i, j, k, 2], fgz, a_half, dt)
-                v[i, j, k, 0] = v0
-                v[i, j, k, 1] = v1
-                v[i, j, k, 2] = v2
-                reaction[i, j, k, 0] = r0
-                reaction[i, j, k, 1] = r1
-                reaction[i, j, k, 2] = r2
-                if i == 0:
-                    for jj in range(1, nt + 1):
-                        v[0, jj, k, 0] = v0
-                        v[0, jj, k, 1] = v1
-                        v[0, jj, k, 2] = v2
-                        reaction[0, jj, k, 0] = 0.0
-                        reaction[0, jj, k, 1] = 0.0
-                        reaction[0, jj, k, 2] = 0.0
-                m0 = 0.5 * (o0 + v0)
-                m1 = 0.5 * (o1 + v1)
-                m2 = 0.5 * (o2 + v2)
-                mm = m0 * m0 + m1 * m1 + m2 * m2
-                ke += 0.5 * m * mm
-                wi -= (fs0 * m0 + fs1 * m1 + fs2 * m2) * dt
-                wv -= (fq0 * m0 + fq1 * m1 + fq2 * m2) * dt
-                wv += damping * m * mm * dt
-                wh -= (fh0 * m0 + fh1 * m1 + fh2 * m2) * dt
-                wg += fgz * m2 * dt
-                wx += ((x0 + r0) * m0 + (x1 + r1) * m1 + (x2 + r2) * m2) * dt
-        acc[i, 0] = ke
-        acc[i, 1] = wi
-        acc[i, 2] = wv
-        acc[i, 3] = wh
-        acc[i, 4] = wg
-        acc[i, 5] = wx
+                g = (buf[j, 0], buf[j, 1], buf[j, 2], buf[j, 3], buf[j, 4], buf[j, 5], buf[j, 6], buf[j, 7], buf[j, 8])
+                _update_node(i, j, k, m, g, v, fix, vfix, fext, reaction, gravity, a_half, dt, e)
+            if M > 1:
+                for j in range(nt + 1):
+                    r = j % M
+                    if r == 0:
+                        continue
+                    t = r / M
+                    j0 = j - r
+                    for d in range(3):
+                        v[i, j, k, d] = (1.0 - t) * v[i, j0, k, d] + t * v[i, j0 + M, k, d]
+                        reaction[i, j, k, d] = 0.0
+        for d in range(6):
+            acc[i, d] = e[d]
     t = column_sums(acc)
     return t[0], t[1], t[2], t[3], t[4], t[5]
 
 
 @njit(**KERNEL_OPTIONS)
-def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz, si, sk, zi, rb):
+def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz, si, sk, zi, rb, m=1):
     """Velocity gradient L (9-tuple, row-major L_ab, a, b ∈ r, θ, z) at the centre of cell (i, j, k) (module
-    docstring) and the hourglass amplitudes q_α = Σ h_αI v_I (α = ξη, ηζ, ξζ, ξηζ; 4 × 3 as a 12-tuple).
+    docstring) and the hourglass amplitudes q_α = Σ h_αI v_I (α = ξη, ηζ, ξζ, ξηζ; 4 × 3 as a 12-tuple). ``m``:
+    the cell spans m sectors from node line j (a tied group; ``dth`` is then its whole angle).
 
     ``si, sk`` ≥ 0 (−1: none; ``zi``, ``rb`` are then not read): the nodes (si, ·, sk) are split at the pile's corner (as r–z's
     :func:`geocel.euler.axisym.split_gradient_rz`, on every node line j): the cells under the base's edge
@@ -295,14 +383,14 @@ def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz, si, sk, zi, rb):
             eta = 2.0 * b - 1.0
             for c in range(2):
                 zeta = 2.0 * c - 1.0
-                v0 = v[i + a, j + b, k + c, 0]
-                v1 = v[i + a, j + b, k + c, 1]
-                v2 = v[i + a, j + b, k + c, 2]
+                v0 = v[i + a, j + b * m, k + c, 0]
+                v1 = v[i + a, j + b * m, k + c, 1]
+                v2 = v[i + a, j + b * m, k + c, 2]
                 if i + a == si and k + c == sk:
                     if a == 1 and c == 1:
-                        v2 = zi[j + b]
+                        v2 = zi[j + b * m]
                     elif a == 0 and c == 0:
-                        v0 = rb[j + b]
+                        v0 = rb[j + b * m]
                 sr = (sr[0] + xi * v0, sr[1] + xi * v1, sr[2] + xi * v2)
                 st = (st[0] + eta * v0, st[1] + eta * v1, st[2] + eta * v2)
                 sz = (sz[0] + zeta * v0, sz[1] + zeta * v1, sz[2] + zeta * v2)
@@ -335,15 +423,16 @@ def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz, si, sk, zi, rb):
 
 @njit(parallel=True, **KERNEL_OPTIONS)
 def update_cells_cyl(
-    tag, prm, rc, hr, dth, hz, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s, hoff,
-    mf, cf, max_sub, si, sk, zi, rb,
+    tag, prm, rc, hr, dth, ties, hz, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s,
+    hoff, mf, cf, max_sub, si, sk, zi, rb,
 ):  # fmt: skip
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (D and W from
     :func:`velocity_gradient_cyl`), the bulk-viscosity pressure q and the hourglass resistance for the next
     nodal pass, as :func:`geocel.euler.lagrange.update_cells` on the cell's local box h_r × r_c Δθ × h_z
     (module docstring). ``state[..., hoff:hoff + 12]`` holds the hourglass generalised stresses (Pa); ``si, sk,
-    zi, rb``: a ring of split nodes (:func:`velocity_gradient_cyl`; si < 0: none, zi and rb then any arrays).
-    Returns (stable Δt of the cells, flat index of the cell governing it)."""
+    zi, rb``: a ring of split nodes (:func:`velocity_gradient_cyl`; si < 0: none, zi and rb then any arrays). A
+    tied group (``ties``) is updated once, as one cell of its slots' soil and mass over its angle m Δθ, and its
+    result copied to every slot. Returns (stable Δt of the cells, flat index of the cell governing it)."""
     nr, nt, nz = Vs.shape
     n = nr * nt * nz
     s2 = stress.reshape((n, 6))
@@ -354,29 +443,39 @@ def update_cells_cyl(
     for cij in prange(nchunk):
         i = cij // nt
         j = cij % nt
+        mt = ties[i]
+        if j % mt != 0:  # (a tied group's later slot: its first one updates it)
+            dts[cij] = np.inf
+            args[cij] = -1
+            continue
         dbuf = np.empty(6)
         wbuf = np.empty(3)
         best = np.inf
         best_c = -1
         h_r = hr[i]
         r_c = rc[i]
-        h_t = r_c * dth
+        h_t = r_c * dth * mt
         for k in range(nz):
             c = cij * nz + k
             h_z = hz[k]
             vol = h_r * h_t * h_z
-            vs = Vs[i, j, k]
+            vs = 0.0
+            mc = 0.0
+            for s in range(j, j + mt):
+                vs += Vs[i, s, k]
+                mc += mass[i, s, k]
             if vs < PHI_MIN * vol:
-                for d in range(6):
-                    stress[i, j, k, d] = 0.0
-                q[i, j, k] = 0.0
-                for a in range(4):
-                    for d in range(3):
-                        hg[i, j, k, a, d] = 0.0
-                        st2[c, hoff + 3 * a + d] = 0.0
-                flags[i, j, k] = 0
+                for s in range(j, j + mt):
+                    for d in range(6):
+                        stress[i, s, k, d] = 0.0
+                    q[i, s, k] = 0.0
+                    for a in range(4):
+                        for d in range(3):
+                            hg[i, s, k, a, d] = 0.0
+                            state[i, s, k, hoff + 3 * a + d] = 0.0
+                    flags[i, s, k] = 0
                 continue
-            L, qh = velocity_gradient_cyl(v, i, j, k, h_r, r_c, dth, h_z, si, sk, zi, rb)
+            L, qh = velocity_gradient_cyl(v, i, j, k, h_r, r_c, dth * mt, h_z, si, sk, zi, rb, mt)
             D = (
                 L[0] * dt,
                 L[4] * dt,
@@ -392,7 +491,7 @@ def update_cells_cyl(
                 f |= SUBSTEP_LIMIT
             flags[i, j, k] = f
             modulus[i, j, k] = M
-            rho = mass[i, j, k] / vs
+            rho = mc / vs
             cd = np.sqrt(M / rho)
             le = characteristic_length(h_r, h_t if i > 0 else 2.0 * h_t, h_z)  # (the axis ring: its outer arc)
             tr = L[0] + L[4] + L[8]
@@ -415,6 +514,17 @@ def update_cells_cyl(
                     sq = min(max(sq, -lim), lim)
                     st2[c, hoff + 3 * a + d] = sq
                     hg[i, j, k, a, d] = chg * qh[3 * a + d] + sq / rho
+            for s in range(j + 1, j + mt):  # the tied group's other slots
+                for d in range(6):
+                    stress[i, s, k, d] = stress[i, j, k, d]
+                for d in range(state.shape[3]):
+                    state[i, s, k, d] = state[i, j, k, d]
+                for a in range(4):
+                    for d in range(3):
+                        hg[i, s, k, a, d] = hg[i, j, k, a, d]
+                q[i, s, k] = qn
+                modulus[i, s, k] = M
+                flags[i, s, k] = f
             vmax = np.sqrt(L[0] ** 2 + L[4] ** 2 + L[8] ** 2) * le
             xi_b = b1 - b2 * b2 * le * min(tr, 0.0) / max(cd, 1e-30)
             dtc = le / (cd * (np.sqrt(1.0 + xi_b * xi_b) + xi_b) + vmax)

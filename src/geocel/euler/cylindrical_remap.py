@@ -18,6 +18,12 @@ sectors. The geometry enters through the face areas only:
   axis stays uniform. The r and z sweeps stay within a sector, whose basis is one.
 * **The axis**: its nodes (0, j, k) of every j are one node; each copy is swept with its share Σ m_cell/8 of
   the lumped mass, then the copies are merged (mass summed, v_z the momentum mean; v_r = v_θ = 0 held).
+* **Tied sectors** (:class:`geocel.grid.cylindrical.CylindricalGrid` ``ties``): the sweeps run on the slots (the
+  slaved node lines move with the interpolated motion, so each slot's face fluxes are its share of the group's),
+  the slots are swept as fine cells, and after the sweeps each group's slots are made equal (sums kept: soil and
+  cell volume, mass, stress and state per soil volume, in the group's basis); the slaved node lines hand their
+  momentum to the independent ones by the interpolation's weights, whose masses become the groups' lumped ones
+  with the momentum kept (v × m_old/m_new).
 
 Mass is conserved to round-off (the top face of the domain is open: material leaving is counted).
 """
@@ -28,6 +34,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..materials.tensor import KERNEL_OPTIONS
+from .cylindrical import node_mass_cyl
 from .remap import soil_fraction, sweep_cells, sweep_nodes
 
 
@@ -63,15 +70,15 @@ def volume_change_cyl(r, hr, dth, hz, u, dt, Vs, Vcur, si, sk, uz_in, ur_b):
 def _turn_tensors(a, theta, offsets, sign):
     """Turn the symmetric tensors (11, 22, 33, 12, 13, 23) stored at ``offsets`` of the last axis of the cell
     array ``a`` (nr, nθ, nz, ·) from the cells' (r, θ, z) bases to Cartesian (``sign`` = +1) or back (−1);
-    ``theta`` (nθ): the cells' centre angles."""
+    ``theta`` (nr, nθ): the angle of each slot's basis (a tied group's centre)."""
     nr, nt, nz, _ = a.shape
     for j in range(nt):
-        c = np.cos(theta[j])
-        s = sign * np.sin(theta[j])
-        c2 = c * c
-        s2 = s * s
-        cs = c * s
         for i in range(nr):
+            c = np.cos(theta[i, j])
+            s = sign * np.sin(theta[i, j])
+            c2 = c * c
+            s2 = s * s
+            cs = c * s
             for k in range(nz):
                 for o in offsets:
                     rr = a[i, j, k, o]
@@ -89,12 +96,12 @@ def _turn_tensors(a, theta, offsets, sign):
 @njit(**KERNEL_OPTIONS)
 def _turn_vectors(a, theta, offsets, sign):
     """Turn the vectors (r, θ, z) at ``offsets`` of the last axis of ``a`` (n1, nθ', n3, ·) to Cartesian
-    (``sign`` = +1) or back (−1); ``theta``: the angle of each index of the second axis."""
+    (``sign`` = +1) or back (−1); ``theta`` (n1, nθ'): the angle of each basis."""
     n1, nt, n3, _ = a.shape
     for j in range(nt):
-        c = np.cos(theta[j])
-        s = sign * np.sin(theta[j])
         for i in range(n1):
+            c = np.cos(theta[i, j])
+            s = sign * np.sin(theta[i, j])
             for k in range(n3):
                 for o in offsets:
                     x = a[i, j, k, o]
@@ -140,6 +147,121 @@ def _merge_axis(m, v, nmass):
                 nmass[i, j, k] = m[i, j, k]
 
 
+@njit(**KERNEL_OPTIONS)
+def _tie_average(ties, Vs, Vcur, mass, stress, state):
+    """Make the slots of every tied group equal, keeping the group's sums (module docstring)."""
+    nr, nt, nz = Vs.shape
+    ns = state.shape[3]
+    for i in range(nr):
+        m = ties[i]
+        if m == 1:
+            continue
+        for j0 in range(0, nt, m):
+            for k in range(nz):
+                vs = 0.0
+                vc = 0.0
+                ms = 0.0
+                for s in range(j0, j0 + m):
+                    vs += Vs[i, s, k]
+                    vc += Vcur[i, s, k]
+                    ms += mass[i, s, k]
+                if vs > 0.0:
+                    for d in range(6):
+                        a = 0.0
+                        for s in range(j0, j0 + m):
+                            a += stress[i, s, k, d] * Vs[i, s, k]
+                        stress[i, j0, k, d] = a / vs
+                    for d in range(ns):
+                        a = 0.0
+                        for s in range(j0, j0 + m):
+                            a += state[i, s, k, d] * Vs[i, s, k]
+                        state[i, j0, k, d] = a / vs
+                for s in range(j0, j0 + m):
+                    Vs[i, s, k] = vs / m
+                    Vcur[i, s, k] = vc / m
+                    mass[i, s, k] = ms / m
+                    for d in range(6):
+                        stress[i, s, k, d] = stress[i, j0, k, d]
+                    for d in range(ns):
+                        state[i, s, k, d] = state[i, j0, k, d]
+
+
+@njit(**KERNEL_OPTIONS)
+def _fold_nodes(m, v, node_factors):
+    """The slaved node lines' mass and momentum to the independent ones (by the interpolation's weights), their
+    velocities the momentum's; the slaved then follow by interpolation and keep no mass."""
+    nr1, nt1, nz1, _ = v.shape
+    pm = np.empty((nt1, 4))
+    for i in range(1, nr1):
+        M = node_factors[i]
+        if M == 1:
+            continue
+        for k in range(nz1):
+            for j in range(nt1):
+                pm[j, 0] = m[i, j, k]
+                for d in range(3):
+                    pm[j, 1 + d] = m[i, j, k] * v[i, j, k, d]
+            for j in range(nt1):
+                r = j % M
+                if r == 0:
+                    continue
+                t = r / M
+                j0 = j - r
+                for d in range(4):
+                    pm[j0, d] += (1.0 - t) * pm[j, d]
+                    pm[j0 + M, d] += t * pm[j, d]
+            for j in range(0, nt1, M):
+                m[i, j, k] = pm[j, 0]
+                if pm[j, 0] > 0.0:
+                    for d in range(3):
+                        v[i, j, k, d] = pm[j, 1 + d] / pm[j, 0]
+            for j in range(nt1):
+                r = j % M
+                if r == 0:
+                    continue
+                t = r / M
+                j0 = j - r
+                m[i, j, k] = 0.0
+                for d in range(3):
+                    v[i, j, k, d] = (1.0 - t) * v[i, j0, k, d] + t * v[i, j0 + M, k, d]
+
+
+@njit(**KERNEL_OPTIONS)
+def _keep_momentum(m_old, m_new, v, node_factors):
+    """v ← v m_old/m_new at the independent nodes (momentum kept as their masses change), then m_old ← m_new; the
+    slaved follow by interpolation."""
+    nr1, nt1, nz1, _ = v.shape
+    for i in range(nr1):
+        M = node_factors[i]
+        for k in range(nz1):
+            for j in range(nt1):
+                if i > 0 and j % M != 0:
+                    continue
+                if m_new[i, j, k] > 0.0:
+                    f = m_old[i, j, k] / m_new[i, j, k]
+                    for d in range(3):
+                        v[i, j, k, d] *= f
+                m_old[i, j, k] = m_new[i, j, k]
+            if i == 0 or M == 1:
+                continue
+            for j in range(nt1):
+                r = j % M
+                if r == 0:
+                    continue
+                t = r / M
+                j0 = j - r
+                m_old[i, j, k] = m_new[i, j, k]
+                for d in range(3):
+                    v[i, j, k, d] = (1.0 - t) * v[i, j0, k, d] + t * v[i, j0 + M, k, d]
+
+
+def _group_centres(dth: float, nt: int, ties: np.ndarray) -> np.ndarray:
+    """(nr, nθ): the angle of each slot's basis, the centre of its tied group."""
+    j = np.arange(nt)
+    m = ties[:, None]
+    return dth * ((j[None, :] // m) * m + 0.5 * m)
+
+
 def tensor_offsets(state_names: tuple[str, ...]) -> tuple[int, ...]:
     """Offsets of the symmetric tensors among a soil model's state components (six names ending in _11, _22,
     _33, _12, _13, _23 in a row, e.g. the intergranular strain)."""
@@ -177,6 +299,7 @@ def remap_cyl(
     split: tuple[int, int] = (-1, -1),
     split_z: np.ndarray | None = None,
     split_r: np.ndarray | None = None,
+    ties: np.ndarray | None = None,
 ) -> tuple[float, float]:
     """Advect everything back to the fixed cylindrical grid (in place) with the mesh motion ``displacement``
     (m, node arrays (nr+1, nθ+1, nz+1, 3) in local components). ``state`` holds the advected state components
@@ -184,8 +307,9 @@ def remap_cyl(
     ``hourglass_offset`` that of the 12 hourglass stresses (4 modes × (r, θ, z) directions), both turned
     across the θ sweep. ``nmass`` (merged axis) is updated; ``fbar`` and ``work`` are scratch. ``active``
     (cells, bool; default all): faces next to an inactive cell carry no flux. ``split``, ``split_z``,
-    ``split_r``: a node ring split at the pile's corner and its parts' mesh motions (:func:`volume_change_cyl`).
-    Returns (mass lost through the top, soil volume capped)."""
+    ``split_r``: a node ring split at the pile's corner and its parts' mesh motions (:func:`volume_change_cyl`);
+    ``ties``: the grid's tied sectors per ring (module docstring; None: none). Returns (mass lost through the
+    top, soil volume capped)."""
     nr1, nt1, nz1 = nmass.shape
     hr = np.diff(r)
     rc = 0.5 * (r[1:] + r[:-1])
@@ -201,8 +325,8 @@ def remap_cyl(
             m_cur=np.empty(nmass.shape),
             m_next=np.empty(nmass.shape),
             phi=np.empty(Vs.shape),
-            theta_n=dth * np.arange(nt1),
-            theta_c=dth * (np.arange(nt1 - 1) + 0.5),
+            theta_n=np.broadcast_to(dth * np.arange(nt1), (nr1, nt1)).copy(),
+            theta_c=_group_centres(dth, nt1 - 1, np.ones(nr1 - 1, dtype=np.int64) if ties is None else ties),
         )
     u3, m_cur, m_next, phi = work["u3"], work["m_cur"], work["m_next"], work["phi"]
     u3[...] = displacement
@@ -212,6 +336,7 @@ def remap_cyl(
     h = {0: (hth, np.ascontiguousarray(hz)), 1: (hr, np.ascontiguousarray(hz)), 2: (hth, rc * hr)}
     if active is None:
         active = np.ones(Vs.shape, dtype=np.bool_)
+    tied = ties is not None and int(np.max(ties)) > 1
     tens = np.array(state_tensors, dtype=np.int64)
     hgo = np.array([hourglass_offset + 3 * a for a in range(4)], dtype=np.int64)
     lost = 0.0
@@ -252,6 +377,17 @@ def remap_cyl(
             _turn_tensors(state, work["theta_c"], tens, -1.0)
             _turn_vectors(state, work["theta_c"], hgo, -1.0)
             _turn_vectors(v, work["theta_n"], np.zeros(1, dtype=np.int64), -1.0)
+    if tied:
+        # the slots swept as fine cells, then each group made one again (in its basis); the nodes' momentum
+        # folded onto the independent lines and kept while their masses become the groups' lumped ones
+        _tie_average(ties, Vs, Vcur, mass, stress, state)
+        factors = np.r_[nt1 - 1, ties].astype(np.int64)
+        _fold_nodes(m_cur, v, factors)
+        _merge_axis(m_cur, v, nmass)
+        lumped = np.empty_like(nmass)
+        node_mass_cyl(mass, lumped, ties)
+        _keep_momentum(nmass, lumped, v, factors)
+        return lost, capped
     _merge_axis(m_cur, v, nmass)
     work["m_cur"], work["m_next"] = m_cur, m_next
     return lost, capped

@@ -9,8 +9,14 @@ sector of the body). Why this layout: the pile's shaft is a node ring and its ba
 the r–z model's treatment of the base's rim carries over to 3D, which a Cartesian grid whose cells the circle
 cuts cannot give (docs/validation.md, "The 3D model in the pile's frame").
 
-Not yet here: fewer sectors towards the axis (the arc r_c Δθ of the ring next to the axis sets the stable Δt),
-the full circle, the remap, contact and the scenario keys.
+**Fewer sectors towards the axis** (``ties``): the arc r_c Δθ of the rings next to the axis would set the
+stable Δt. Ring i's cells may be tied in groups of m_i consecutive sectors (m_i a power of two dividing nθ,
+not increasing outwards) that act as one cell of m_i Δθ: the arrays keep every sector (a "slot"), and a tied
+group's slots hold the same values. On node ring i the node lines that are multiples of M_i = m_{i−1} (the
+coarser of its two rings) are independent; the others follow them, interpolated linearly in θ.
+:meth:`from_axisymmetric` with ``coarsen_axis`` ties each ring so that its arc is at least ``min_arc`` × h_r.
+
+Not yet here: the full circle.
 """
 
 from __future__ import annotations
@@ -33,6 +39,8 @@ class CylindricalGrid:
     r: np.ndarray
     theta: np.ndarray
     z: np.ndarray
+    #: per ring, the sectors tied into one cell (module docstring); None: none (all 1)
+    ties: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         rz = AxisymmetricGrid(self.r, self.z)  # checks r and z
@@ -45,17 +53,44 @@ class CylindricalGrid:
             raise ValueError("the sectors must be equal (uniform θ)")
         if self.theta[-1] > math.pi * (1.0 + 1e-12):
             raise ValueError(f"θ reaches {self.theta[-1]:.4g} rad: a half model (π) at most for now")
+        n = self.theta.size - 1
+        m = np.ones(self.r.size - 1, dtype=np.int64) if self.ties is None else np.asarray(self.ties, dtype=np.int64)
+        if m.shape != (self.r.size - 1,) or np.any(m < 1) or np.any(n % m != 0) or np.any(m & (m - 1)):
+            raise ValueError(f"ties must be one power of two dividing nθ = {n} per ring, got {m!r}")
+        if np.any(np.diff(m) > 0):
+            raise ValueError("ties must not increase outwards (the sectors coarsen towards the axis)")
+        self.ties = np.ascontiguousarray(m)
 
     @classmethod
     def from_axisymmetric(
-        cls, g: AxisymmetricGrid, n_theta: int, extent: str = "quarter"
-    ) -> CylindricalGrid:
-        """The r–z grid ``g`` turned through the ``extent``'s angle in ``n_theta`` sectors."""
+        cls, g: AxisymmetricGrid, n_theta: int, extent: str = "quarter", coarsen_axis: bool = False,
+        min_arc: float = 0.5, untied_from: int | None = None,
+    ) -> CylindricalGrid:  # fmt: skip
+        """The r–z grid ``g`` turned through the ``extent``'s angle in ``n_theta`` sectors; with
+        ``coarsen_axis`` each ring's sectors tied in the fewest groups (powers of two dividing ``n_theta``) whose
+        arc (:meth:`ring_arcs`) is at least ``min_arc`` × the ring's h_r, and none from ring ``untied_from`` on
+        (e.g. the ring inside a pile's shaft, whose node ring must be independent)."""
         if extent not in EXTENTS:
             raise ValueError(f"extent must be one of {sorted(EXTENTS)}, got {extent!r}")
         if int(n_theta) != n_theta or n_theta < 1:
             raise ValueError(f"n_theta must be a positive integer, got {n_theta!r}")
-        return cls(g.r.copy(), np.linspace(0.0, EXTENTS[extent], int(n_theta) + 1), g.z.copy())
+        n = int(n_theta)
+        theta = np.linspace(0.0, EXTENTS[extent], n + 1)
+        ties = None
+        if coarsen_axis:
+            dth = theta[1]
+            r = g.r
+            reach = np.r_[r[1], 0.5 * (r[1:-1] + r[2:])] * dth  # the arc of one sector (ring 0: its outer one)
+            ties = np.ones(g.nr, dtype=np.int64)
+            for i in range(g.nr):
+                m = 1
+                while m * reach[i] < min_arc * (r[i + 1] - r[i]) and n % (2 * m) == 0:  # (ring 0's reach: its outer arc)
+                    m *= 2
+                ties[i] = m
+            if untied_from is not None:
+                ties[max(untied_from, 0) :] = 1
+            ties = np.minimum.accumulate(ties)  # (never coarser outwards)
+        return cls(g.r.copy(), theta, g.z.copy(), ties)
 
     # --- geometry --------------------------------------------------------------------------------------------
     @property
@@ -76,7 +111,25 @@ class CylindricalGrid:
 
     @property
     def n_cells(self) -> int:
+        """Cells, a tied group counted once."""
+        return int((self.ntheta // self.ties).sum()) * self.nz
+
+    @property
+    def n_slots(self) -> int:
+        """Sector cells of the arrays (a tied group's m slots counted each)."""
         return self.nr * self.ntheta * self.nz
+
+    def node_factors(self) -> np.ndarray:
+        """Per node ring, M_i: the node lines that are multiples of it are independent (ring 0: the axis, one
+        node; M_0 = nθ)."""
+        return np.r_[self.ntheta, self.ties].astype(np.int64)
+
+    def ring_arcs(self) -> np.ndarray:
+        """Per ring, the arc that sets the stable Δt: r_c m_i Δθ (ring 0: its outer arc r₁ m₀ Δθ, its inner nodes
+        do not move in r or θ), m."""
+        arcs = self.rc * self.ties * self.dtheta
+        arcs[0] = self.r[1] * self.ties[0] * self.dtheta
+        return arcs
 
     @property
     def hr(self) -> np.ndarray:
@@ -116,17 +169,16 @@ class CylindricalGrid:
     def smallest_length(self) -> float:
         """The length that sets the stable Δt where it is shortest: h_r, h_z, the arc r_c Δθ of a ring or the
         outer arc r₁Δθ of the ring at the axis (m)."""
-        arcs = self.rc * self.dtheta
-        arcs[0] = self.r[1] * self.dtheta
-        return float(min(self.hr.min(), self.hz.min(), arcs.min()))
+        return float(min(self.hr.min(), self.hz.min(), self.ring_arcs().min()))
 
     def smallest_cell(self) -> float:
         """:meth:`smallest_length` (the backends' name)."""
         return self.smallest_length()
 
     def describe(self) -> str:
+        tied = f" ({self.n_slots} sectors, tied towards the axis)" if self.ties.max() > 1 else ""
         return (
-            f"cylindrical grid {self.nr}×{self.ntheta}×{self.nz} = {self.n_cells} cells over "
+            f"cylindrical grid {self.nr}×{self.ntheta}×{self.nz} = {self.n_cells} cells{tied} over "
             f"{math.degrees(self.angle):.0f}°; shortest edge {self.smallest_length():.4g} m; "
             f"r ∈ [0, {self.r[-1]:.3g}], z ∈ [{self.z[0]:.3g}, {self.z[-1]:.3g}] m"
         )

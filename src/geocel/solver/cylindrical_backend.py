@@ -25,13 +25,14 @@ if TYPE_CHECKING:
 
 
 def theta_cells(scenario: Scenario) -> int:
-    """Sectors per quarter turn: ``[domain] theta_cells``, or the arc of a sector at the pile's radius (the fine
-    zone's without a pile) about ``fine_size``, at least 2."""
+    """Sectors per quarter turn: ``[domain] theta_cells``, or the power of two nearest to π/2 a/fine_size (the arc
+    of a sector at the pile's radius a, the fine zone's without a pile, about fine_size), at least 2; a power of
+    two lets the rings towards the axis tie their sectors in halves, quarters …"""
     d = scenario.domain
     if d.theta_cells is not None:
         return int(d.theta_cells)
     a = 0.5 * scenario.pile.diameter if scenario.pile is not None else d.fine_radius
-    return max(2, round(0.5 * math.pi * a / d.fine_size))
+    return max(2, 2 ** round(math.log2(0.5 * math.pi * a / d.fine_size)))
 
 
 class CylindricalBackend(AxisymmetricBackend):
@@ -61,7 +62,10 @@ class CylindricalBackend(AxisymmetricBackend):
             max_size=d.max_size,
             fine_height=d.fine_height,
         )
-        grid = CylindricalGrid.from_axisymmetric(rz, theta_cells(scenario) * (2 if d.symmetry == "half" else 1), d.symmetry)
+        # the sectors tied towards the axis (an arc of at least half a cell), but not inside the pile's shaft
+        shaft = round(0.5 * scenario.pile.diameter / d.fine_size) - 1 if scenario.pile is not None else None
+        n = theta_cells(scenario) * (2 if d.symmetry == "half" else 1)
+        grid = CylindricalGrid.from_axisymmetric(rz, n, d.symmetry, coarsen_axis=True, untied_from=shaft)
         self.extent_factor = 2.0 * math.pi / grid.angle
         f = CylindricalField(grid, scenario.soil.material, scaling=scenario.scaling.mass_gravity,
                              settings=solver_settings(scenario))  # fmt: skip

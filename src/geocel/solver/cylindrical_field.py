@@ -23,6 +23,7 @@ from ..euler.cylindrical import (
     FORCE_FACTORS_CYL,
     HOURGLASS_STATE_CYL,
     advance_nodes_cyl,
+    follow_masters,
     node_mass_cyl,
     update_cells_cyl,
 )
@@ -121,9 +122,11 @@ class CylindricalField(FieldBalances):
         self._remap_work: dict = {}
         # the reciprocal node spacings of the pending remap's Courant number: h_r, the arc r Δθ (r₁Δθ at the
         # axis), h_z
-        arcs = np.maximum(g.r, g.r[1]) * g.dtheta
+        arcs = np.maximum(g.r, g.r[1]) * g.dtheta * g.node_factors()
         self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / arcs, 1.0 / node_spacing(g.hz))
         self._state_tensors = tensor_offsets(self.material.state_names[1:])
+        self._node_factors = g.node_factors()
+        self._tied = bool(g.ties.max() > 1)
         #: the cells that take part in the remap (the pile's cells in its frame do not)
         self.active = np.ones(shape, dtype=np.bool_)
         #: a ring of nodes split at the pile's corner (``rim = "corner"``; geocel.euler.cylindrical
@@ -180,7 +183,7 @@ class CylindricalField(FieldBalances):
 
     def initialise(self) -> None:
         """Nodal masses, the tiny-mass threshold, the initial mass and Δt from the current cell arrays."""
-        node_mass_cyl(self.mass, self.nmass)
+        node_mass_cyl(self.mass, self.nmass, self.grid.ties)
         soil = self.Vs > PHI_MIN * self.volume
         if soil.any():
             rho = self.mass[soil] / self.Vs[soil]
@@ -210,8 +213,7 @@ class CylindricalField(FieldBalances):
         M = self._modulus_now()[soil]
         rho = self.mass[soil] / self.Vs[soil]
         hr = self.hr[:, None, None]
-        ht = (self.rc * self.dtheta)[:, None, None].copy()
-        ht[0] = self.grid.r[1] * self.dtheta  # the axis ring: its outer arc (geocel.euler.cylindrical)
+        ht = self.grid.ring_arcs()[:, None, None]  # (a tied group's; the axis ring: its outer arc)
         hz = self.hz[None, None, :]
         le = np.broadcast_to(characteristic_length(hr, ht, hz), self.Vs.shape)[soil]
         dtc = le / np.sqrt(M / rho)
@@ -231,15 +233,17 @@ class CylindricalField(FieldBalances):
         if contact is not None:
             contact.before_nodes(dt)
         ke, dEi, dEv, dEh, wg, wx = advance_nodes_cyl(
-            self.hr, self.hz, self.rc, self.dtheta, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass,
+            self.hr, self.hz, self.rc, self.dtheta, self.grid.ties, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass,
             self.v, self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
             self.mass_tiny, self._force_factors,
         )  # fmt: skip
         if contact is not None:
             contact.apply(dt)
+            if self._tied:
+                follow_masters(self.v, self._node_factors)
         t1 = perf_counter()
         dtc, arg = update_cells_cyl(
-            self.model_tag, self.prm, self.rc, self.hr, self.dtheta, self.hz, self.Vs, self.mass, self.stress,
+            self.model_tag, self.prm, self.rc, self.hr, self.dtheta, self.grid.ties, self.hz, self.Vs, self.mass, self.stress,
             self.state, self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength,
             self._max_substep, self.split_ring[0], self.split_ring[1], self.split_z, self.split_r,
@@ -297,7 +301,7 @@ class CylindricalField(FieldBalances):
             self.state[..., 1:], self.nmass, self.fbar, self.remap_count, self.mass_tiny, displacement,
             self._state_tensors, self.nstate - 1, self.grain_density / (1.0 + E_MAX),
             self.grain_density / (1.0 + E_MIN), self._remap_work, self.active, self.split_ring, self.remap_split_z,
-            self.remap_split_r,
+            self.remap_split_r, self.grid.ties,
         )  # fmt: skip
         displacement[...] = 0.0
         _void_ratio_cyl(self.Vs, self.volume, self.mass, self.state, self.grain_density)
@@ -308,7 +312,7 @@ class CylindricalField(FieldBalances):
 
     def _lump_bottom_rows(self) -> None:
         """The lumped masses of the two node rows around the refilled bottom cells."""
-        node_mass_cyl(self.mass, self.nmass, 2)
+        node_mass_cyl(self.mass, self.nmass, self.grid.ties, 2)
 
     # --- diagnostics ------------------------------------------------------------------------------------------
     def soil_mass(self) -> float:
