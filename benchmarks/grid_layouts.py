@@ -12,7 +12,9 @@ cells of ``--fine-size`` in the fine zone (r ≤ ``--fine-radius``, from the voi
 * **nested 2:1 blocks**: boxes of cells h, 2h, 4h, … each holding ``--buffer`` of its own cells around the finer
   box (the interfaces' 2:1 ratio and a buffer of at least a few cells keep waves from reflecting), capped by
   the container;
-* **cylindrical** (r, θ, z): the r and z edges of the tensor product, ``--theta-cells`` per quarter turn.
+* **cylindrical** (r, θ, z): the r and z edges of the tensor product, ``--theta-cells`` per quarter turn; as
+  built (``[domain] layout = "cylindrical"``) with the sectors tied towards the axis so that no arc is below half
+  a cell (its length that sets Δt: the smallest L_e of the cells' local boxes × √3, comparable with the fine size).
 
 For each: the cells, the smallest length that sets the stable Δt (the fine size; for the cylindrical grid the
 arc of the ring next to the axis, which is much shorter) and the cell-steps per unit of simulated time
@@ -27,6 +29,9 @@ import math
 
 import numpy as np
 
+from geocel.euler.lagrange import characteristic_length
+from geocel.grid.axisym import AxisymmetricGrid
+from geocel.grid.cylindrical import CylindricalGrid
 from geocel.grid.graded import graded_edges
 
 
@@ -98,7 +103,8 @@ def main() -> None:
     ap.add_argument("--growth", type=float, default=1.15, help="tensor product and cylindrical grading")
     ap.add_argument("--max-size", type=float, default=3.0, help="m")
     ap.add_argument("--buffer", type=int, nargs="+", default=[4, 6, 8])
-    ap.add_argument("--theta-cells", type=int, nargs="+", default=[5, 8, 12])
+    ap.add_argument("--theta-cells", type=int, nargs="+", default=[4, 8, 16])
+    ap.add_argument("--pile-radius", type=float, default=0.3, help="m (the cylindrical layout's untied shaft ring)")
     a = ap.parse_args()
     if min(a.fine_size, a.fine_radius, a.fine_depth, a.radius, a.depth) <= 0 or a.void < 0:
         ap.error("sizes must be positive (the void non-negative)")
@@ -125,12 +131,20 @@ def main() -> None:
         print("    levels: " + ", ".join(f"{h:g} m: {c}" for h, c in levels))
     nr = len(xe) - 1
     rows = len(ze) - 1 + round(a.void / a.fine_size)
+    rz = AxisymmetricGrid(xe, np.r_[-ze[::-1], a.fine_size * np.arange(1, round(a.void / a.fine_size) + 1)])
+    shaft = round(a.pile_radius / a.fine_size) - 1
     for nt in a.theta_cells:
         n = nr * nt * rows
         axis_arc = 0.5 * (xe[1] - xe[0]) * (math.pi / 2) / nt  # the ring next to the axis, at its centre
-        shaft_arc = 0.3 * (math.pi / 2) / nt
-        name = f"cylindrical, {nt} per quarter (arc at r = 0.3 m: {shaft_arc:.3f} m)"
+        shaft_arc = a.pile_radius * (math.pi / 2) / nt
+        name = f"cylindrical, {nt} per quarter (arc at r = {a.pile_radius:g} m: {shaft_arc:.3f} m)"
         print(f"{name:44s} {n:8d} {axis_arc:20.4f} {n / axis_arc / ref:18.3f}")
+        # as built: the sectors tied towards the axis (arcs ≥ ½ h_r, none inside the pile's shaft); the length
+        # that sets Δt is the smallest L_e of the cells' local boxes, against the tensor product's cube (h/√3)
+        g = CylindricalGrid.from_axisymmetric(rz, nt, coarsen_axis=True, untied_from=shaft)
+        le = characteristic_length(g.hr[:, None], g.ring_arcs()[:, None], g.hz[None, :]).min() * math.sqrt(3.0)
+        name = f"  tied towards the axis ({'/'.join(str(m) for m in g.ties[: max(shaft, 1)])} …)"
+        print(f"{name:44s} {g.n_cells:8d} {le:20.4f} {g.n_cells / le / ref:18.3f}")
     print(f"nested_cells={first}")
 
 

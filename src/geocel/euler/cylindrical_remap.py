@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..materials.tensor import KERNEL_OPTIONS
-from .cylindrical import node_mass_cyl
+from .cylindrical import follow_masters, node_mass_cyl
 from .remap import soil_fraction, sweep_cells, sweep_nodes
 
 
@@ -189,7 +189,7 @@ def _tie_average(ties, Vs, Vcur, mass, stress, state):
 @njit(**KERNEL_OPTIONS)
 def _fold_nodes(m, v, node_factors):
     """The slaved node lines' mass and momentum to the independent ones (by the interpolation's weights), their
-    velocities the momentum's; the slaved then follow by interpolation and keep no mass."""
+    velocities the momentum's; the slaved keep no mass (their velocities: :func:`follow_masters`)."""
     nr1, nt1, nz1, _ = v.shape
     pm = np.empty((nt1, 4))
     for i in range(1, nr1):
@@ -216,20 +216,13 @@ def _fold_nodes(m, v, node_factors):
                     for d in range(3):
                         v[i, j, k, d] = pm[j, 1 + d] / pm[j, 0]
             for j in range(nt1):
-                r = j % M
-                if r == 0:
-                    continue
-                t = r / M
-                j0 = j - r
-                m[i, j, k] = 0.0
-                for d in range(3):
-                    v[i, j, k, d] = (1.0 - t) * v[i, j0, k, d] + t * v[i, j0 + M, k, d]
+                if j % M != 0:
+                    m[i, j, k] = 0.0
 
 
 @njit(**KERNEL_OPTIONS)
 def _keep_momentum(m_old, m_new, v, node_factors):
-    """v ← v m_old/m_new at the independent nodes (momentum kept as their masses change), then m_old ← m_new; the
-    slaved follow by interpolation."""
+    """v ← v m_old/m_new at the independent nodes (momentum kept as their masses change), then m_old ← m_new."""
     nr1, nt1, nz1, _ = v.shape
     for i in range(nr1):
         M = node_factors[i]
@@ -245,14 +238,8 @@ def _keep_momentum(m_old, m_new, v, node_factors):
             if i == 0 or M == 1:
                 continue
             for j in range(nt1):
-                r = j % M
-                if r == 0:
-                    continue
-                t = r / M
-                j0 = j - r
-                m_old[i, j, k] = m_new[i, j, k]
-                for d in range(3):
-                    v[i, j, k, d] = (1.0 - t) * v[i, j0, k, d] + t * v[i, j0 + M, k, d]
+                if j % M != 0:
+                    m_old[i, j, k] = m_new[i, j, k]
 
 
 def _group_centres(dth: float, nt: int, ties: np.ndarray) -> np.ndarray:
@@ -387,6 +374,7 @@ def remap_cyl(
         lumped = np.empty_like(nmass)
         node_mass_cyl(mass, lumped, ties)
         _keep_momentum(nmass, lumped, v, factors)
+        follow_masters(v, factors)
         return lost, capped
     _merge_axis(m_cur, v, nmass)
     work["m_cur"], work["m_next"] = m_cur, m_next

@@ -35,7 +35,6 @@ from ..euler.axisym_remap import remap_rz
 from ..euler.lagrange import PHI_MIN
 from ..euler.nonlocal_mean import reaches_a_neighbour
 from ..grid.axisym import AxisymmetricGrid
-from ..materials.kernels import update_cells as material_update_cells
 from ..materials.tensor import KERNEL_OPTIONS
 from .field import (
     E_MAX,
@@ -207,20 +206,6 @@ class AxisymmetricField(FieldBalances):
             self.mass_tiny = 1e-9 * float(rho.max() * self.volume[soil].min())
         self.initial_mass = float(self.mass.sum())
         self.dt = self.settings.safety_factor * self.stable_time_step()
-
-    def _modulus_now(self) -> np.ndarray:
-        soil = self.Vs > PHI_MIN * self.volume
-        out = np.zeros(self.Vs.shape)
-        n = int(soil.sum())
-        if n == 0:
-            return out
-        s = self.stress[soil].copy()
-        st = self.state[soil][:, : self.nstate].copy()
-        M = np.empty(n)
-        f = np.empty(n, dtype=np.int64)
-        material_update_cells(self.model_id, self.prm, s, st, np.zeros((n, 6)), np.zeros((n, 3)), 0.0, M, f)
-        out[soil] = M
-        return out
 
     def stable_time_step(self) -> float:
         """min L_e/c over the soil cells, c = √(M/ρ) of the current state, L_e = :func:`characteristic_length_rz`."""

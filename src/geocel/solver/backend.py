@@ -51,6 +51,25 @@ def _geometry(scenario: Scenario) -> PileGeometry | None:
     return PileGeometry.embedded(p.diameter, p.length, p.initial_embedment, tip=p.tip, tip_angle=p.tip_angle)
 
 
+def rz_grid(scenario: Scenario):
+    """The r–z grid of the ``[domain]`` keys (:meth:`geocel.grid.axisym.AxisymmetricGrid.graded`): the r–z model's,
+    and the one the cylindrical layout turns round the axis."""
+    from ..grid.axisym import AxisymmetricGrid
+
+    d = scenario.domain
+    return AxisymmetricGrid.graded(
+        radius=d.radius,
+        soil_depth=d.soil_depth,
+        void_height=d.void_height,
+        fine_size=d.fine_size,
+        fine_radius=d.fine_radius,
+        fine_depth=d.fine_depth,
+        growth=d.growth,
+        max_size=d.max_size,
+        fine_height=d.fine_height,
+    )
+
+
 class Backend:
     """What the loop needs of a model (soil field, pile, contact); see the module docstring for the units."""
 
@@ -437,24 +456,13 @@ class AxisymmetricBackend(Backend):
 
     def __init__(self, scenario: Scenario) -> None:
         from ..contact.axisym import AxisymmetricPileContact, RigidPileRZ
-        from ..grid.axisym import AxisymmetricGrid
         from .axisym_field import AxisymmetricField
         from .simulation import solver_settings
 
         super().__init__(scenario)
         self._rigid_type = RigidPileRZ
         d = scenario.domain
-        grid = AxisymmetricGrid.graded(
-            radius=d.radius,
-            soil_depth=d.soil_depth,
-            void_height=d.void_height,
-            fine_size=d.fine_size,
-            fine_radius=d.fine_radius,
-            fine_depth=d.fine_depth,
-            growth=d.growth,
-            max_size=d.max_size,
-            fine_height=d.fine_height,
-        )
+        grid = rz_grid(scenario)
         mat = scenario.soil.material
         f = AxisymmetricField(
             grid, mat, scaling=scenario.scaling.mass_gravity, settings=solver_settings(scenario)

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..io.vtk import write_structured, write_unstructured_hex
-from .backend import AxisymmetricBackend, Backend, _layers
+from .backend import AxisymmetricBackend, Backend, _layers, rz_grid
 
 if TYPE_CHECKING:
     from ..config.scenario import Scenario
@@ -42,7 +42,6 @@ class CylindricalBackend(AxisymmetricBackend):
     def __init__(self, scenario: Scenario) -> None:
         from ..contact.axisym import RigidPileRZ
         from ..contact.cylindrical import CylindricalPileContact
-        from ..grid.axisym import AxisymmetricGrid
         from ..grid.cylindrical import CylindricalGrid
         from .cylindrical_field import CylindricalField
         from .simulation import build_pile_body, solver_settings
@@ -51,17 +50,7 @@ class CylindricalBackend(AxisymmetricBackend):
         self._rigid_type = RigidPileRZ
         d = scenario.domain
         self.symmetry = d.symmetry
-        rz = AxisymmetricGrid.graded(
-            radius=d.radius,
-            soil_depth=d.soil_depth,
-            void_height=d.void_height,
-            fine_size=d.fine_size,
-            fine_radius=d.fine_radius,
-            fine_depth=d.fine_depth,
-            growth=d.growth,
-            max_size=d.max_size,
-            fine_height=d.fine_height,
-        )
+        rz = rz_grid(scenario)
         # the sectors tied towards the axis (an arc of at least half a cell), but not inside the pile's shaft
         shaft = round(0.5 * scenario.pile.diameter / d.fine_size) - 1 if scenario.pile is not None else None
         n = theta_cells(scenario) * (2 if d.symmetry == "half" else 1)

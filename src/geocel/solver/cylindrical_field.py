@@ -30,7 +30,6 @@ from ..euler.cylindrical import (
 from ..euler.cylindrical_remap import remap_cyl, tensor_offsets
 from ..euler.lagrange import PHI_MIN, characteristic_length
 from ..grid.cylindrical import CylindricalGrid
-from ..materials.kernels import update_cells as material_update_cells
 from ..materials.tensor import KERNEL_OPTIONS
 from .field import E_MAX, E_MIN, FieldBalances, InstabilityError, Material, SolverSettings, node_spacing
 
@@ -190,20 +189,6 @@ class CylindricalField(FieldBalances):
             self.mass_tiny = 1e-9 * float(rho.max() * self.volume[soil].min())
         self.initial_mass = float(self.mass.sum())
         self.dt = self.settings.safety_factor * self.stable_time_step()
-
-    def _modulus_now(self) -> np.ndarray:
-        soil = self.Vs > PHI_MIN * self.volume
-        out = np.zeros(self.Vs.shape)
-        n = int(soil.sum())
-        if n == 0:
-            return out
-        s = self.stress[soil].copy()
-        st = self.state[soil][:, : self.nstate].copy()
-        M = np.empty(n)
-        f = np.empty(n, dtype=np.int64)
-        material_update_cells(self.model_id, self.prm, s, st, np.zeros((n, 6)), np.zeros((n, 3)), 0.0, M, f)
-        out[soil] = M
-        return out
 
     def stable_time_step(self) -> float:
         """min L_e/c over the soil cells, L_e of the cell's local box h_r × r_c Δθ × h_z (r₁Δθ at the axis)."""

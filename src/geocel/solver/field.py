@@ -209,6 +209,25 @@ class FieldBalances:
         if np.isfinite(dtc):
             self.dt = min(st.safety_factor * dtc, st.dt_growth * dt)
 
+    def _soil_cells(self) -> np.ndarray:
+        """The cells holding soil."""
+        return self.Vs > PHI_MIN * self.volume
+
+    def _modulus_now(self) -> np.ndarray:
+        """P-wave modulus M of every cell's current state (Pa; 0 where there is no soil)."""
+        soil = self._soil_cells()
+        out = np.zeros(self.Vs.shape)
+        n = int(soil.sum())
+        if n == 0:
+            return out
+        s = self.stress[soil].copy()
+        st = self.state[soil][:, : self.nstate].copy()
+        M = np.empty(n)
+        f = np.empty(n, dtype=np.int64)
+        material_update_cells(self.model_id, self.prm, s, st, np.zeros((n, 6)), np.zeros((n, 3)), 0.0, M, f)
+        out[soil] = M
+        return out
+
     def energy_balance_error(self) -> float:
         """KE + internal + dissipation − external work − (kinetic energy removed by the remap), J."""
         e = self.energy
@@ -391,20 +410,9 @@ class SoilField(FieldBalances):
         self.initial_mass = float(self.mass.sum())
         self.dt = self.settings.safety_factor * self.stable_time_step()
 
-    def _modulus_now(self) -> np.ndarray:
-        """P-wave modulus M of every cell's current state (Pa; 0 where there is no soil)."""
-        soil = self.active3 & (self.Vs > PHI_MIN * self.volume)
-        out = np.zeros(self.Vs.shape)
-        n = int(soil.sum())
-        if n == 0:
-            return out
-        s = self.stress[soil].copy()
-        st = self.state[soil].copy()
-        M = np.empty(n)
-        f = np.empty(n, dtype=np.int64)
-        material_update_cells(self.model_id, self.prm, s, st, np.zeros((n, 6)), np.zeros((n, 3)), 0.0, M, f)
-        out[soil] = M
-        return out
+    def _soil_cells(self) -> np.ndarray:
+        """The cells holding soil (and taking part in the step)."""
+        return self.active3 & (self.Vs > PHI_MIN * self.volume)
 
     def stable_time_step(self) -> float:
         """Critical step min L_e/c over the soil cells, with c = √(M/ρ) from the current material stiffness
