@@ -162,7 +162,8 @@ class Domain(_Table):
         le=256,
         description="cylindrical layout: sectors per quarter turn, - (None: the power of two nearest to π/2 × pile "
         "radius / fine_size, at least 2; towards the axis the sectors are tied in groups of 2, 4 …, powers of two "
-        "dividing theta_cells, so that no arc is shorter than half a cell, except inside the pile's radius)",
+        "dividing theta_cells, so that no arc is shorter than its ring's cells are wide, except the ring inside the pile's "
+        "shaft)",
     )
     buffer: int = Field(
         4,

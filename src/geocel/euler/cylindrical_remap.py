@@ -25,7 +25,9 @@ sectors. The geometry enters through the face areas only:
   momentum to the independent ones by the interpolation's weights, whose masses become the groups' lumped ones
   with the momentum kept (v × m_old/m_new).
 
-Mass is conserved to round-off (the top face of the domain is open: material leaving is counted).
+Mass is conserved to round-off (the top face of the domain is open: material leaving is counted). Where the
+mesh has no motion round the axis (below 1e-12 of its largest: round-off, as in an axisymmetric motion) the θ
+sweep is skipped: it would move nothing.
 """
 
 from __future__ import annotations
@@ -328,7 +330,12 @@ def remap_cyl(
     hgo = np.array([hourglass_offset + 3 * a for a in range(4)], dtype=np.int64)
     lost = 0.0
     capped = 0.0
+    # no motion round the axis (to round-off: an axisymmetric one): the θ sweep would move nothing
+    umax = float(np.abs(displacement).max())
+    skip_theta = float(np.abs(displacement[..., 1]).max()) <= 1e-12 * umax
     for axis in _ORDERS[parity % 2]:
+        if axis == 1 and skip_theta:
+            continue
         p = _PERM[axis]
         pc = p + (3,)
         if axis == 1:  # across θ: Cartesian components

@@ -14,7 +14,8 @@ stable Δt. Ring i's cells may be tied in groups of m_i consecutive sectors (m_i
 not increasing outwards) that act as one cell of m_i Δθ: the arrays keep every sector (a "slot"), and a tied
 group's slots hold the same values. On node ring i the node lines that are multiples of M_i = m_{i−1} (the
 coarser of its two rings) are independent; the others follow them, interpolated linearly in θ.
-:meth:`from_axisymmetric` with ``coarsen_axis`` ties each ring so that its arc is at least ``min_arc`` × h_r.
+:meth:`from_axisymmetric` with ``coarsen_axis`` ties each ring so that its arc is at least ``min_arc`` × h_r
+(default 1: the arcs then do not set Δt where the rings' h_r does).
 
 Not yet here: the full circle.
 """
@@ -64,7 +65,7 @@ class CylindricalGrid:
     @classmethod
     def from_axisymmetric(
         cls, g: AxisymmetricGrid, n_theta: int, extent: str = "quarter", coarsen_axis: bool = False,
-        min_arc: float = 0.5, untied_from: int | None = None,
+        min_arc: float = 1.0, untied_from: int | None = None,
     ) -> CylindricalGrid:  # fmt: skip
         """The r–z grid ``g`` turned through the ``extent``'s angle in ``n_theta`` sectors; with
         ``coarsen_axis`` each ring's sectors tied in the fewest groups (powers of two dividing ``n_theta``) whose

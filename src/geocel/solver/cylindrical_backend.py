@@ -51,7 +51,8 @@ class CylindricalBackend(AxisymmetricBackend):
         d = scenario.domain
         self.symmetry = d.symmetry
         rz = rz_grid(scenario)
-        # the sectors tied towards the axis (an arc of at least half a cell), but not inside the pile's shaft
+        # the sectors tied towards the axis (arcs at least as long as the rings' cells are wide), but not the ring
+        # inside the pile's shaft
         shaft = round(0.5 * scenario.pile.diameter / d.fine_size) - 1 if scenario.pile is not None else None
         n = theta_cells(scenario) * (2 if d.symmetry == "half" else 1)
         grid = CylindricalGrid.from_axisymmetric(rz, n, d.symmetry, coarsen_axis=True, untied_from=shaft)
