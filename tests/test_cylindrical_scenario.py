@@ -108,16 +108,11 @@ def test_restart_in_the_pile_frame_gives_the_same_history(tmp_path, pile_type):
         ({"pile": {"tip": "conical"}}, 'layout = "cylindrical" supports only a flat tip'),
         ({"domain": {"fine_size": 0.03}}, "must lie on a node line of the grid"),
         ({"contact": {"rim": "split"}}, "[contact].rim"),
-        ({"soil": {"model": "hypoplastic", "nonlocal_length": 0.1}}, "no non-local sand yet"),
     ],
 )
 def test_bad_cylindrical_input_is_one_clear_line(change, needle):
     d = copy.deepcopy(cylindrical_dict())
     for table, keys in change.items():
-        if table == "soil" and keys.get("model") == "hypoplastic":
-            d["soil"] = {"preset": "fraction-e", **keys, "layers": [{"top": 0.0, "e0": 0.7}]}
-            d["soil"].pop("model")
-            continue
         d.setdefault(table, {}).update(keys)
     with pytest.raises(ScenarioError) as err:
         scenario_from_dict(d)

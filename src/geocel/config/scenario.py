@@ -610,12 +610,6 @@ class Scenario(_Table):
             self._check_void_ratios()
         if self.domain.frame == "pile" and self.pile is None:
             raise _invalid(("domain", "frame"), "pile", "the pile's frame needs a [pile]")
-        if self.domain.layout == "cylindrical" and getattr(self.soil.material, "nonlocal_length", 0.0) > 0.0:
-            raise _invalid(
-                ("soil", "material", "nonlocal_length"),
-                self.soil.material.nonlocal_length,
-                "the cylindrical layout has no non-local sand yet: set it to 0",
-            )
         if self.pile is not None:
             self._check_pile_geometry()
             if self.domain.symmetry == "axisymmetric" or self.domain.layout == "cylindrical":

@@ -55,6 +55,7 @@ from .lagrange import (
     strength_reserve,
     substeps,
 )
+from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
 
 #: components of the hourglass control kept after the material state (4 modes × 3 directions, Pa)
 HOURGLASS_STATE_CYL = 12
@@ -424,7 +425,7 @@ def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz, si, sk, zi, rb, m=1):
 @njit(parallel=True, **KERNEL_OPTIONS)
 def update_cells_cyl(
     tag, prm, rc, hr, dth, ties, hz, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s,
-    hoff, mf, cf, max_sub, si, sk, zi, rb,
+    hoff, mf, cf, max_sub, si, sk, zi, rb, nlf, nonlocal_,
 ):  # fmt: skip
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (D and W from
     :func:`velocity_gradient_cyl`), the bulk-viscosity pressure q and the hourglass resistance for the next
@@ -432,7 +433,9 @@ def update_cells_cyl(
     (module docstring). ``state[..., hoff:hoff + 12]`` holds the hourglass generalised stresses (Pa); ``si, sk,
     zi, rb``: a ring of split nodes (:func:`velocity_gradient_cyl`; si < 0: none, zi and rb then any arrays). A
     tied group (``ties``) is updated once, as one cell of its slots' soil and mass over its angle m Δθ, and its
-    result copied to every slot. Returns (stable Δt of the cells, flat index of the cell governing it)."""
+    result copied to every slot. With ``nonlocal_`` the soil model's nonlinear term is scaled by the non-local
+    factors ``nlf`` (:func:`nonlocal_factor_cyl`). Returns (stable Δt of the cells, flat index of the cell
+    governing it)."""
     nr, nt, nz = Vs.shape
     n = nr * nt * nz
     s2 = stress.reshape((n, 6))
@@ -486,7 +489,7 @@ def update_cells_cyl(
             )
             W = (0.5 * (L[1] - L[3]) * dt, 0.5 * (L[2] - L[6]) * dt, 0.5 * (L[5] - L[7]) * dt)
             nsub = substeps(D, max_sub)
-            M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, 1.0, dbuf, wbuf)
+            M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
             if nsub == MAX_CELL_SUBSTEPS:
                 f |= SUBSTEP_LIMIT
             flags[i, j, k] = f
@@ -540,3 +543,52 @@ def update_cells_cyl(
             dt_min = dts[ch]
             arg = args[ch]
     return dt_min, arg
+
+
+# --- non-local soil model (internal length) ------------------------------------------------------------------
+def nonlocal_weights_cyl(rc, zc, length: float) -> tuple:
+    """The per-axis weights of :func:`geocel.euler.nonlocal_mean.nonlocal_mean` on the (r, θ, z) cell arrays: r–z's
+    (:func:`geocel.euler.axisym.nonlocal_weights_rz`: the Gaussian integrated round the rings along r, the
+    Gaussian along z), none along θ. Every node line's sectors are thus averaged as r–z averages its plane: exact
+    when nothing depends on θ (the mean is r–z's), and for a field that varies round the axis the mean of each
+    sector's own line, as if it held all round (no mixing across θ)."""
+    return axis_weights(rc, length, ring=True), None, axis_weights(zc, length)
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def stretching_norms_cyl(v, rc, hr, dth, ties, hz, Vs, nd, Vw, si, sk, zi, rb):
+    """‖D‖ (1/s) of every soil cell into ``nd`` and its soil volume into ``Vw`` (both 0 in void cells); a tied
+    group's once, copied to its slots (its soil volume shared equally)."""
+    nr, nt, nz = Vs.shape
+    for cij in prange(nr * nt):
+        i = cij // nt
+        j = cij % nt
+        mt = ties[i]
+        if j % mt != 0:
+            continue
+        for k in range(nz):
+            vs = 0.0
+            for s in range(j, j + mt):
+                vs += Vs[i, s, k]
+            norm = 0.0
+            if vs < PHI_MIN * rc[i] * hr[i] * dth * mt * hz[k]:
+                vs = 0.0
+            else:
+                L, _ = velocity_gradient_cyl(v, i, j, k, hr[i], rc[i], dth * mt, hz[k], si, sk, zi, rb, mt)
+                d12 = 0.5 * (L[1] + L[3])
+                d13 = 0.5 * (L[2] + L[6])
+                d23 = 0.5 * (L[5] + L[7])
+                norm = np.sqrt(L[0] * L[0] + L[4] * L[4] + L[8] * L[8] + 2.0 * (d12 * d12 + d13 * d13 + d23 * d23))
+            for s in range(j, j + mt):
+                nd[i, s, k] = norm
+                Vw[i, s, k] = vs / mt
+
+
+def nonlocal_factor_cyl(v, rc, hr, dth, ties, hz, Vs, weights, nd, scratch, out, split, zi, rb) -> None:
+    """``out`` = max(1, ‖D‖*/‖D‖) of every soil cell (1 in void cells and where the soil is at rest), the mean
+    ‖D‖* with :func:`nonlocal_weights_cyl`; ``nd`` ends holding ‖D‖ (1/s); ``scratch``: five arrays of the
+    cells' shape; ``split`` (i, k), ``zi``, ``rb``: the split node ring (:func:`velocity_gradient_cyl`)."""
+    Vw = scratch[0]
+    stretching_norms_cyl(v, rc, hr, dth, ties, hz, Vs, nd, Vw, split[0], split[1], zi, rb)
+    nonlocal_mean(Vw, nd, weights, list(scratch[1:]), out)
+    factor_from_mean(nd, out)

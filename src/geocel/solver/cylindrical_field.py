@@ -7,7 +7,8 @@ analysis); the kernels are :mod:`geocel.euler.cylindrical` and :mod:`geocel.eule
 sector (m³, kg, N, J; × 4 for a quarter model's whole body). Node arrays are (nr+1, nθ+1, nz+1[, 3]) with
 components (r, θ, z) in the node's basis; cell arrays (nr, nθ, nz[, k]); stresses (rr, θθ, zz, rθ, rz, θz).
 
-Not yet here: contact, the pile's frame, the non-local sand, fewer sectors towards the axis.
+The pile's contact is :mod:`geocel.contact.cylindrical`; the non-local sand's mean is r–z's on every node line
+(:func:`geocel.euler.cylindrical.nonlocal_weights_cyl`).
 """
 
 from __future__ import annotations
@@ -25,10 +26,13 @@ from ..euler.cylindrical import (
     advance_nodes_cyl,
     follow_masters,
     node_mass_cyl,
+    nonlocal_factor_cyl,
+    nonlocal_weights_cyl,
     update_cells_cyl,
 )
 from ..euler.cylindrical_remap import remap_cyl, tensor_offsets
 from ..euler.lagrange import PHI_MIN, characteristic_length
+from ..euler.nonlocal_mean import reaches_a_neighbour
 from ..grid.cylindrical import CylindricalGrid
 from ..materials.tensor import KERNEL_OPTIONS
 from .field import E_MAX, E_MIN, FieldBalances, InstabilityError, Material, SolverSettings, node_spacing
@@ -126,6 +130,12 @@ class CylindricalField(FieldBalances):
         self._state_tensors = tensor_offsets(self.material.state_names[1:])
         self._node_factors = g.node_factors()
         self._tied = bool(g.ties.max() > 1)
+        #: the non-local factors max(1, ‖D‖*/‖D‖) of the last step (1 for a local soil model), their weights (None:
+        #: the local model, or a length that reaches no neighbouring cell) and scratch
+        self.nonlocal_factor = np.ones(shape)
+        w = nonlocal_weights_cyl(g.rc, g.zc, self.nonlocal_length) if self.nonlocal_length > 0 else None
+        self._nonlocal_weights = w if (w is not None and reaches_a_neighbour(w)) else None
+        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(6)) if self._nonlocal_weights else ()
         #: the cells that take part in the remap (the pile's cells in its frame do not)
         self.active = np.ones(shape, dtype=np.bool_)
         #: a ring of nodes split at the pile's corner (``rim = "corner"``; geocel.euler.cylindrical
@@ -227,11 +237,19 @@ class CylindricalField(FieldBalances):
             if self._tied:
                 follow_masters(self.v, self._node_factors)
         t1 = perf_counter()
+        nonlocal_ = self._nonlocal_weights is not None
+        if nonlocal_:
+            nonlocal_factor_cyl(
+                self.v, self.rc, self.hr, self.dtheta, self.grid.ties, self.hz, self.Vs, self._nonlocal_weights,
+                self._nonlocal_scratch[0], self._nonlocal_scratch[1:], self.nonlocal_factor, self.split_ring,
+                self.split_z, self.split_r,
+            )  # fmt: skip
         dtc, arg = update_cells_cyl(
             self.model_tag, self.prm, self.rc, self.hr, self.dtheta, self.grid.ties, self.hz, self.Vs, self.mass, self.stress,
             self.state, self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength,
             self._max_substep, self.split_ring[0], self.split_ring[1], self.split_z, self.split_r,
+            self.nonlocal_factor, nonlocal_,
         )  # fmt: skip
         if not (math.isfinite(ke) and math.isfinite(dEi)):
             raise InstabilityError(
