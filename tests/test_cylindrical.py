@@ -535,3 +535,21 @@ def test_the_jacked_pile_is_the_rz_pile_when_nothing_depends_on_theta(rim, frame
         assert a.nonlocal_factor.max() > 1.01  # (the mean acted)
         np.testing.assert_allclose(b.nonlocal_factor, np.broadcast_to(a.nonlocal_factor[:, None], b.Vs.shape),
                                    rtol=1e-9)  # fmt: skip
+
+
+def test_ties_must_be_powers_of_two_dividing_the_sectors_and_coarsen_towards_the_axis():
+    """A tie profile that is not one power of two dividing nθ per ring, or that grows outwards, is refused; the
+    default profile ties each ring until its arc (ring 0: the outer one) is at least its h_r, and none from
+    ``untied_from`` on."""
+    r, z, th = RZ.r, RZ.z, np.linspace(0.0, 0.5 * np.pi, 9)
+    for bad in ([3, 1, 1, 1, 1], [2, 4, 1, 1, 1], [16, 1, 1, 1, 1], [1, 1, 1]):
+        with pytest.raises(ValueError, match="ties"):
+            CylindricalGrid(r, th, z, np.array(bad))
+    g = CylindricalGrid.from_axisymmetric(RZ, 8, coarsen_axis=True)
+    arcs = g.ring_arcs()
+    assert np.all((arcs >= RZ.hr * (1 - 1e-12)) | (g.ties == 8))  # (or as tied as 8 sectors allow)
+    assert np.all((g.ties == 1) | (arcs / 2 < RZ.hr))  # (no tie coarser than needed)
+    assert g.ties.tolist() == sorted(g.ties.tolist(), reverse=True)
+    h = CylindricalGrid.from_axisymmetric(RZ, 8, coarsen_axis=True, untied_from=2)
+    assert h.ties[2:].max() == 1 and h.ties[:2].tolist() == g.ties[:2].tolist()
+    assert h.n_cells == sum(8 // m for m in h.ties) * RZ.nz

@@ -256,8 +256,9 @@ class Simulation:
         if scenario.domain.layout == "cylindrical":
             self.notes.append(
                 "the cylindrical layout is experimental: its soil step and pile contact reproduce the r–z model's to "
-                "round-off when nothing depends on θ (tests/test_cylindrical.py); no non-local sand yet, and the "
-                'sectors next to the axis set the stable Δt (docs/numerics.md, "The cylindrical layout")'
+                "round-off when nothing depends on θ (tests/test_cylindrical.py); for motions that vary round the "
+                "axis its tied sectors and its non-local mean are first approximations, not measured yet "
+                '(docs/numerics.md, "The cylindrical layout")'
             )
         if self.has_pile and cartesian and scenario.domain.frame == "pile":
             self.notes.append(
