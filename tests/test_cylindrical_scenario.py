@@ -44,6 +44,7 @@ def test_pile_run_matches_the_standalone_driver_and_writes_a_structured_grid(tmp
     assert s["status"] == "finished" and s["symmetry"] == "quarter" and s["pile_model"].startswith("r–z")
     assert abs(s["soil_mass_error"]) < 1e-12 and s["soil_inside_pile"] < 1e-9
     assert any("cylindrical layout is experimental" in n for n in s["notes"])
+    assert s["inertia_calibration"] == "axisymmetric"  # (its numerics are r–z's: r–z's calibration of the check)
     h = read_history(tmp_path / "run" / "history.csv")
     a = 0.1
     rho_d = 2650.0 / (1 + E0)

@@ -642,7 +642,7 @@ def _print_verdict(summary: dict) -> bool:
     )
     inertia = summary.get("max_inertia_ratio")
     if inertia is not None:
-        symmetry = summary.get("symmetry", "3d")
+        symmetry = summary.get("inertia_calibration", summary.get("symmetry", "3d"))
         vi = inertia_verdict(inertia, symmetry)
         valid, caution = inertia_limits(symmetry)
         console.print(

@@ -369,7 +369,9 @@ def write_results(
             "max_KE_IE": s["max_energy_ratio"],
             "quasi_static": verdict(s["max_energy_ratio"]),
             "max_inertia_ratio": s.get("max_inertia_ratio"),
-            "inertia_check": inertia_verdict(s.get("max_inertia_ratio"), s.get("symmetry", symmetry)),
+            "inertia_check": inertia_verdict(
+                s.get("max_inertia_ratio"), s.get("inertia_calibration", s.get("symmetry", symmetry))
+            ),
             "soil_mass_error": s["soil_mass_error"],
         }
         if ref is not None and h is not None:

@@ -565,6 +565,7 @@ class Simulation:
             "quasi_static": _verdict(self.max_energy_ratio),
             "max_inertia_ratio": self.max_inertia_ratio if self.max_inertia_ratio >= 0.0 else None,
             "inertia_check": _inertia_verdict(self.max_inertia_ratio, self.backend.inertia_mode),
+            "inertia_calibration": self.backend.inertia_mode,  # ("axisymmetric" for r–z and the cylindrical layout)
             "energy_check_from_penetration": self._energy_check_start() if self.has_pile else 0.0,
             "restarts": self.restarts,
             "notes": self.notes,
