@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from ..bodies.pile import ContactLoad, PileBody, Surface
-from ..euler.cylindrical import gather_node_force_cyl
+from ..euler.cylindrical import follow_masters, gather_node_force_cyl
 from ..materials.tensor import KERNEL_OPTIONS
 from .axisym import AxisymmetricPileContact, RigidPileRZ, _split_trial, _split_velocity
 
@@ -524,6 +524,8 @@ class CylindricalPileContact(AxisymmetricPileContact):
             displacement[ia, :, kc, 2] -= np.maximum(lag, 0.0)
         self._pile_motion = 0.0
         f = self.field
+        if f._tied:  # (the clamps above act on the independent nodes: the slaved follow them)
+            follow_masters(displacement, f._node_factors)
         if corner:
             f.remap_split_z[:] = self._u_in
             f.remap_split_r[:] = self._u_B
