@@ -287,19 +287,7 @@ class AxisymmetricField(FieldBalances):
         else:
             self.frame_offset += wz * dt
         t3 = perf_counter()
-        e = self.energy
-        e["kinetic"] = ke + self.kinetic_correction
-        e["internal"] += dEi
-        e["viscous"] += dEv
-        e["hourglass"] += dEh
-        e["gravity_work"] += wg
-        e["external_work"] += wg + wx
-        self.time += dt
-        self.step_count += 1
-        self.dt_critical = dtc
-        self.governing_cell = arg
-        if dtc < math.inf:
-            self.dt = min(st.safety_factor * dtc, st.dt_growth * dt)
+        self.book(dt, (ke, dEi, dEv, dEh, wg), dtc, arg, wx, self.kinetic_correction)
         t4 = perf_counter()
         tm = self.timers
         tm["nodes"] += t1 - t0

@@ -191,17 +191,19 @@ class FieldBalances:
         self.timers: dict[str, float] = dict.fromkeys(("nodes", "cells", "remap", "bookkeeping"), 0.0)
         self._init_frame()
 
-    def book(self, dt: float, sums, dtc: float, arg: int) -> None:
-        """Energies, clock and the next Δt (bounded by the growth ratio) after a step."""
+    def book(self, dt: float, sums, dtc: float, arg: int, external: float = 0.0, kinetic_extra: float = 0.0) -> None:
+        """Energies, clock and the next Δt (bounded by the growth ratio) after a step; ``external``: the work of
+        the external forces and reactions (besides gravity's), ``kinetic_extra``: a correction to the kinetic
+        energy (the contact's split nodes), J."""
         st = self.settings
         ke, dEi, dEv, dEh, wg = sums
         e = self.energy
-        e["kinetic"] = ke
+        e["kinetic"] = ke + kinetic_extra
         e["internal"] += dEi
         e["viscous"] += dEv
         e["hourglass"] += dEh
         e["gravity_work"] += wg
-        e["external_work"] += wg
+        e["external_work"] += wg + external
         self.time += dt
         self.step_count += 1
         self.dt_critical = dtc
