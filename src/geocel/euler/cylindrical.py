@@ -142,6 +142,17 @@ def follow_masters(v, node_factors):
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
+def group_sums(Vs, mass, i, j, k, m):
+    """Soil volume and mass of the tied group of m slots from slot j of ring i, row k (one slot: its own)."""
+    vs = 0.0
+    mc = 0.0
+    for s in range(j, j + m):
+        vs += Vs[i, s, k]
+        mc += mass[i, s, k]
+    return vs, mc
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
 def cell_force_factors_cyl(ci, cj, ck, gr_, gt_, gz_, nn_, vs, mc, stress, q, hg, out):
     """The corner-independent factors of cell (ci, cj, ck)'s nodal forces into ``out`` (27), its soil volume
     ``vs`` and mass ``mc`` given (a tied group's sums over its slots); ``gr_`` = 1/(4h_r), ``gt_`` =
@@ -295,11 +306,7 @@ def advance_nodes_cyl(
         if cj % mt != 0:
             continue
         for ck in range(nz):
-            vs = 0.0
-            mc = 0.0
-            for s in range(cj, cj + mt):
-                vs += Vs[ci, s, ck]
-                mc += mass[ci, s, ck]
+            vs, mc = group_sums(Vs, mass, ci, cj, ck, mt)
             cell_force_factors_cyl(ci, cj, ck, gr_, gt_, gz_, nn_, vs, mc, stress, q, hg, cf[ci, cj, ck])
     acc = np.empty((nr + 1, 6))
     a_half = 0.5 * damping * dt
@@ -462,11 +469,7 @@ def update_cells_cyl(
             c = cij * nz + k
             h_z = hz[k]
             vol = h_r * h_t * h_z
-            vs = 0.0
-            mc = 0.0
-            for s in range(j, j + mt):
-                vs += Vs[i, s, k]
-                mc += mass[i, s, k]
+            vs, mc = group_sums(Vs, mass, i, j, k, mt)
             if vs < PHI_MIN * vol:
                 for s in range(j, j + mt):
                     for d in range(6):
