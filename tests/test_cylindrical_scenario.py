@@ -1,6 +1,9 @@
 """The cylindrical layout through scenarios and Simulation (``[domain] layout = "cylindrical"``; issue 18).
 
-Tiny grids (a few hundred cells per sector line, Mohr–Coulomb soil, MGS S = 10): seconds each with a warm cache."""
+Tiny grids (a few hundred cells per sector line, MGS S = 10): seconds each with a warm cache. The soil is elastic
+(the kernels' elastic and hypoplastic versions are those tests/test_cylindrical.py compiles: a Mohr–Coulomb one
+would cost another compilation of the cell update on a cold cache, and the soil model's update is the layout's
+common code)."""
 
 from __future__ import annotations
 
@@ -29,6 +32,10 @@ def cylindrical_dict(**domain) -> dict:
     d["name"] = "cyl-tiny"
     d["domain"].update(symmetry="quarter", layout="cylindrical", theta_cells=2)
     d["domain"].update(domain)
+    soil = d["soil"]
+    d["soil"] = dict(model="elastic", youngs_modulus=soil["youngs_modulus"], poisson_ratio=soil["poisson_ratio"],
+                     grain_density=soil["grain_density"], layers=soil["layers"])  # fmt: skip
+    d.setdefault("contact", {})["friction"] = 0.36  # (≈ tan ⅔φ of the r–z tests' φ = 30°)
     return d
 
 
@@ -118,3 +125,29 @@ def test_bad_cylindrical_input_is_one_clear_line(change, needle):
     with pytest.raises(ScenarioError) as err:
         scenario_from_dict(d)
     assert needle in str(err.value)
+
+
+def test_preset_with_the_cylindrical_layout_is_the_rz_model_in_3d():
+    """``geocel preset deeks-white --layout cylindrical``: the r–z preset's model (the pile's frame, its split
+    corner, the non-local sand, a rigid pile, the r–z resolutions) on a quarter of the cylindrical layout, a half
+    with ``--symmetry half``; other symmetries are refused with exit code 2."""
+    import tomllib
+
+    from typer.testing import CliRunner
+
+    from geocel.cli import app
+
+    runner = CliRunner()
+    rz = scenario_from_dict(tomllib.loads(runner.invoke(app, ["preset", "deeks-white", "--symmetry", "axisymmetric"]).output))
+    res = runner.invoke(app, ["preset", "deeks-white", "--layout", "cylindrical"])
+    assert res.exit_code == 0 and "# Runtime:" in res.output and "cylindrical layout" in res.output
+    sc = scenario_from_dict(tomllib.loads(res.output))
+    assert sc.domain.layout == "cylindrical" and sc.domain.symmetry == "quarter"
+    for a, b in ((sc.domain, rz.domain), (sc.pile, rz.pile), (sc.loading, rz.loading), (sc.contact, rz.contact)):
+        same = {k: v for k, v in a.model_dump().items() if k not in ("symmetry", "layout")}
+        assert same == {k: v for k, v in b.model_dump().items() if k not in ("symmetry", "layout")}
+    assert sc.soil.material == rz.soil.material and sc.scaling == rz.scaling
+    half = runner.invoke(app, ["preset", "deeks-white", "--layout", "cylindrical", "--symmetry", "half"])
+    assert scenario_from_dict(tomllib.loads(half.output)).domain.symmetry == "half"
+    bad = runner.invoke(app, ["preset", "deeks-white", "--layout", "cylindrical", "--symmetry", "axisymmetric"])
+    assert bad.exit_code == 2 and "quarter and half" in bad.output

@@ -58,7 +58,7 @@ def test_accumulated_displacement_and_the_courant_number_of_the_pending_remap():
     u = np.zeros_like(v)
     r = [1.0 / node_spacing(h)] * 3
     for n in range(1, 8):
-        c = accumulate_displacement(*r, v, 0.01, u)
+        c = accumulate_displacement(*r, v, 0.01, u, 0.0)
         np.testing.assert_allclose(u, n * 0.01 * v, rtol=1e-14)
         assert c == pytest.approx(n * 0.01 * 2.0 / 0.1, rel=1e-14)  # |u_y| at the 0.1 m spacing
 
@@ -139,7 +139,7 @@ def _advect(grid, Vs, v_uniform, dt, nsteps):
     state = np.zeros(shape + (1,))
     Vcur = vol.copy()
     nmass = np.zeros((grid.nx + 1, grid.ny + 1, grid.nz + 1))
-    node_mass(mass, grid.active2d, nmass)
+    node_mass(mass, grid.active2d, nmass, 0, -1, 0, -1, 0, -1)
     v = np.zeros(nmass.shape + (3,))
     fbar = np.zeros(shape)
     for step in range(nsteps):
@@ -186,7 +186,7 @@ def _remap_once(grid, Vs, v, dt):
     stress[..., 3] = 200.0 * Vs / vol * (grid.xc - grid.xc.mean())[:, None, None]  # odd in x, like σ_xy
     state = (Vs / vol)[..., None] ** 2
     nmass = np.zeros((grid.nx + 1, grid.ny + 1, grid.nz + 1))
-    node_mass(mass, grid.active2d, nmass)
+    node_mass(mass, grid.active2d, nmass, 0, -1, 0, -1, 0, -1)
     out = (Vs.copy(), vol.copy(), mass, stress, state, nmass, np.zeros(grid.shape))
     _remap_on(grid, v.copy(), dt, *out, 0, 1e-9)
     return out

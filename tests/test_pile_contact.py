@@ -185,7 +185,7 @@ def test_soil_stays_out_of_the_pile_during_3D_of_penetration(penetration_run):
 
     f = r["field"]
     full = np.zeros_like(f.nmass)
-    node_mass(f.mass, f.active2d, full)
+    node_mass(f.mass, f.active2d, full, 0, -1, 0, -1, 0, -1)
     np.testing.assert_allclose(f.nmass, full, rtol=1e-9, atol=1e-12 * full.max())
     # the flow, not the exclusion step, moves the soil out of the pile's way: the soil relocated without
     # strain is a small part of the volume the pile displaced (0.19 measured; 0.44 with the half-cell band
@@ -329,9 +329,12 @@ def test_deferred_remap_matches_the_remap_after_every_step(tmp_path):
     assert np.abs(m1 - m0).max() <= 0.03 * m0.max()
     assert len(h0) == len(h1)
     a, b = h0["qb"].to_numpy()[1:], h1["qb"].to_numpy()[1:]
-    # measured: 0.09 % of the peak and 0.03 % of the work apart (0.66 % and 0.35 % with the mutation above)
-    assert np.all(np.abs(b - a) <= 0.003 * np.abs(a).max())
-    assert h1["jack_work"].iloc[-1] == pytest.approx(h0["jack_work"].iloc[-1], rel=0.001)
+    # measured: 0.31 % of the peak and 0.05 % of the work apart (0.66 % and 0.35 % with the mutation above). The
+    # run is chaotic at this level: a round-off-sized change of the initial stresses (× (1 + ε), ε = 1e-13 …
+    # 3e-11) moves these differences between 0.22 and 0.42 % and 0.01 and 0.08 % (so does a change of the
+    # compiled code's rounding), hence the bounds
+    assert np.all(np.abs(b - a) <= 0.005 * np.abs(a).max())
+    assert h1["jack_work"].iloc[-1] == pytest.approx(h0["jack_work"].iloc[-1], rel=0.0015)
 
 
 def test_subcycled_solid_pile_matches_the_single_time_step_run(tmp_path):

@@ -298,21 +298,30 @@ def preset_cmd(
             "pile radius at demo/coarse/paper, S = 10 at 0.05 m/s, 1 m)"
         ),
     ] = None,
+    layout: Annotated[
+        str | None,
+        typer.Option(
+            help="tensor | nested | cylindrical (3D: the r–z model's pile's frame, corner and sand and its "
+            "resolutions on the cylindrical layout, a quarter or --symmetry half; experimental)"
+        ),
+    ] = None,
 ) -> None:
     """Print a scenario preset as TOML (``geocel preset deeks-white > my.toml``)."""
     from .benchmark.presets import AXISYMMETRIC_QUICK, preset_dict, preset_text, scenario_from_options
 
     with user_errors():
-        if resolution is None and symmetry is None:
+        if resolution is None and symmetry is None and layout is None:
             text = preset_text(name)
         else:
             import tomli_w
 
-            quick = AXISYMMETRIC_QUICK if symmetry == "axisymmetric" else {}
+            rz_model = symmetry == "axisymmetric" or layout == "cylindrical"
+            quick = AXISYMMETRIC_QUICK if rz_model else {}
             d = preset_dict(
                 name,
                 resolution=resolution,
                 symmetry=symmetry,
+                layout=layout,
                 penetration=quick.get("penetration"),
                 velocity=quick.get("velocity"),
                 scaling=quick.get("mass_gravity"),
@@ -322,29 +331,44 @@ def preset_cmd(
             if quick:
                 res = resolution or "demo"
                 cells = round(0.5 * d["pile"]["diameter"] / d["domain"]["fine_size"])
+                cyl = layout == "cylindrical"
                 text = _AXISYMMETRIC_HEADER.format(
-                    res=res, cells=cells, pen=quick["penetration"], v=quick["velocity"],
-                    S=quick["mass_gravity"], runtime=_AXISYMMETRIC_RUNTIME[res],
+                    res=res, cells=cells, pen=quick["penetration"], v=quick["velocity"], S=quick["mass_gravity"],
+                    runtime=(_CYLINDRICAL_RUNTIME if cyl else _AXISYMMETRIC_RUNTIME)[res],
+                    mode=f"3D cylindrical layout ({d['domain']['symmetry']} model)" if cyl else "axisymmetric (r–z) mode",
+                    scope=_CYLINDRICAL_SCOPE if cyl else _AXISYMMETRIC_SCOPE,
                 ) + text  # fmt: skip
     sys.stdout.write(text)
 
 
 _AXISYMMETRIC_HEADER = """\
-# The Deeks & White pile in the axisymmetric (r–z) mode at the {res} resolution ({cells} cells per pile radius): a rigid
+# The Deeks & White pile in the {mode} at the {res} resolution ({cells} cells per pile radius): a rigid
 # flat-based pile (D = 0.6 m) in the centrifuge's container (radius 21.25 m, 28 m deep), jacked {pen:g} m at {v:g} m/s
 # with MGS S = {S:g}. The model is that of the grid study in docs/validation.md: the grid moves down with the
 # pile's base ([domain] frame = "pile": soil_depth and fine_depth are measured below the base's start, the void
 # holds the penetration and the heave), the node under the pile's corner is split ([contact] rim = "corner", the
 # default in that frame), and the sand is non-local with the internal length [soil] nonlocal_length = 0.1 m.
 # Runtime: {runtime}
-# Vertical loading only: no bending, lateral load or pile groups (use the 3D symmetries for those).
+# {scope}
 """
+_AXISYMMETRIC_SCOPE = "Vertical loading only: no bending, lateral load or pile groups (use the 3D symmetries for those)."
+_CYLINDRICAL_SCOPE = (
+    "Experimental (docs/numerics.md, \"The cylindrical layout\"): the pile on the axis, the axis held laterally;\n"
+    "# for a vertical load it reproduces the r–z model (docs/validation.md), at several times its cost."
+)
 #: measured runtimes of the r–z preset as printed (one thread, Numba cache warm), by resolution
 _AXISYMMETRIC_RUNTIME = {
     "demo": "18 min measured on one thread (the other core busy), Numba cache warm\n"
     "# (4 929 soil cells, 280 637 steps); q_b 2.87 MPa and q_s 1.18 kPa at 1 m, inertia check valid.",
     "coarse": "about 6x the demo's 18 min (cells x steps, estimate).",
     "paper": "about 35x the demo's 18 min (cells x steps, estimate): a job for a bigger machine.",
+}
+#: the same for the cylindrical layout: the r–z preset's times × the cost ratio measured at 6 cells per radius
+#: (docs/validation.md, "The cylindrical layout": 13.6× r–z over 1 m at 0.5 m/s)
+_CYLINDRICAL_RUNTIME = {
+    "demo": "about 14x the r–z preset's 18 min on one thread (estimate from the measured ratio): ≈ 4 h.",
+    "coarse": "about 14x the r–z coarse preset's (estimate), more with its 16 sectors: a job for a bigger machine.",
+    "paper": "about 14x the r–z paper preset's (estimate), more with its 32 sectors: a job for a bigger machine.",
 }
 
 

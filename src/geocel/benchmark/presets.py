@@ -13,15 +13,17 @@ paper       0.1 m           1.5 m         12 m         about the paper's 200 000
 With ``symmetry="axisymmetric"`` (the r–z plane, a rigid pile unless asked otherwise) the model is that of the grid
 study in docs/validation.md (:data:`AXISYMMETRIC_MODEL`: the pile's frame, the split corner, the non-local sand
 with l = 0.1 m) and the resolutions are those of :data:`AXISYMMETRIC_RESOLUTIONS`: fine cells that divide the pile
-radius (6, 12 and 24 cells per radius).
+radius (6, 12 and 24 cells per radius). With ``layout="cylindrical"`` the same model and resolutions on the 3D
+cylindrical layout (a quarter, or a half with ``symmetry="half"``; experimental, docs/numerics.md).
 """
 
 from __future__ import annotations
 
 import tomllib
+import typing
 from importlib import resources
 
-from ..config.scenario import Scenario, ScenarioError, scenario_from_dict
+from ..config.scenario import Domain, Scenario, ScenarioError, scenario_from_dict
 
 #: scenario keys set by command-line options of ``geocel demo`` and ``geocel benchmark``
 OPTION_KEYS = {"[loading].penetration": "--penetration", "[loading].velocity": "--velocity"}
@@ -49,6 +51,7 @@ AXISYMMETRIC_RESOLUTIONS = {
 #: 0.0–0.5 % MPE (below the noise floor), at half or a quarter of the substeps (docs/validation.md)
 AXISYMMETRIC_MODEL = {"frame": "pile", "nonlocal_length": 0.1, "pile_element_size": 0.1}
 SYMMETRIES = ("quarter", "half", "full", "axisymmetric")
+LAYOUTS = typing.get_args(Domain.model_fields["layout"].annotation)
 #: what ``geocel preset deeks-white --symmetry axisymmetric`` changes besides the model and the grid: MGS S = 10 at
 #: a speed the r–z inertia check calls valid (docs/validation.md), and a penetration that takes minutes
 AXISYMMETRIC_QUICK = {"velocity": 0.05, "mass_gravity": 10.0, "penetration": 1.0}
@@ -69,19 +72,29 @@ def preset_dict(
     pile: str | None = None,
     scaling: float | None = None,
     symmetry: str | None = None,
+    layout: str | None = None,
 ) -> dict:
     """The preset as a dict, with a resolution and the usual overrides applied. ``symmetry="axisymmetric"``:
     the r–z model with a rigid pile (unless ``pile`` says otherwise: solid and coupled piles run in r–z too) and
-    the resolutions of :data:`AXISYMMETRIC_RESOLUTIONS` (default "demo")."""
+    the resolutions of :data:`AXISYMMETRIC_RESOLUTIONS` (default "demo"). ``layout="cylindrical"``: the same
+    model on the 3D cylindrical layout, a quarter unless ``symmetry="half"``."""
     d = tomllib.loads(preset_text(name))
     resolutions = RESOLUTIONS
+    if layout is not None:
+        if layout not in LAYOUTS:
+            raise ValueError(f"unknown layout {layout!r}; available: {', '.join(LAYOUTS)}")
+        d["domain"]["layout"] = layout
+        if layout == "cylindrical":
+            if symmetry not in (None, "quarter", "half"):
+                raise ValueError(f"the cylindrical layout has quarter and half models, not {symmetry!r}")
+            symmetry = symmetry or "quarter"
     if symmetry is not None:
         if symmetry not in SYMMETRIES:
             raise ValueError(f"unknown symmetry {symmetry!r}; available: {', '.join(SYMMETRIES)}")
         d["domain"]["symmetry"] = symmetry
-        if symmetry == "axisymmetric":
+        if symmetry == "axisymmetric" or layout == "cylindrical":
             d["domain"].pop("cylinder_mask", None)  # (the r–z domain is a cylinder)
-            d["name"] = f"{d['name']}-axisymmetric"
+            d["name"] = f"{d['name']}-{'cylindrical' if layout == 'cylindrical' else 'axisymmetric'}"
             d["pile"]["type"] = pile or "rigid"
             d["domain"]["frame"] = AXISYMMETRIC_MODEL["frame"]
             d["soil"]["nonlocal_length"] = AXISYMMETRIC_MODEL["nonlocal_length"]

@@ -213,7 +213,7 @@ def element_forces(x, v, hexes, stress, q, emass, modulus, kappa, volume, fe):
     """Nodal forces of every element, fe (m, 8, 3) (N): −(σ − q I)·B_I − c_hg Σ_α q_α γ_αI.
 
     Also stores the current element volumes. ``modulus`` = λ + 2μ (Pa), ``emass`` element masses (kg)."""
-    _forces_range(0, hexes.shape[0], x, v, hexes, stress, q, emass, modulus, kappa, volume, fe)
+    _forces_range(np.int64(0), hexes.shape[0], x, v, hexes, stress, q, emass, modulus, kappa, volume, fe)
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -258,7 +258,7 @@ def _gather_range(a0, a1, fe, ptr, inc_elem, inc_local, f):
 @njit(**KERNEL_OPTIONS)
 def gather_forces(fe, ptr, inc_elem, inc_local, f):
     """f (n, 3) = Σ over the elements of each node of fe[e, local], through the node incidence (CSR)."""
-    _gather_range(0, ptr.shape[0] - 1, fe, ptr, inc_elem, inc_local, f)
+    _gather_range(np.int64(0), ptr.shape[0] - 1, fe, ptr, inc_elem, inc_local, f)
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -348,7 +348,7 @@ def update_elements(x, v, hexes, dt, emass, lam, mu, b1, b2, stress, q, rate_v):
     """Stress, bulk viscosity and volumetric strain rate of every element from the velocities v^{n+½}.
 
     x holds x^{n+1}; the gradient is taken on the mid-step configuration x − ½Δt v."""
-    _update_range(0, hexes.shape[0], x, v, hexes, dt, emass, lam, mu, b1, b2, stress, q, rate_v)
+    _update_range(np.int64(0), hexes.shape[0], x, v, hexes, dt, emass, lam, mu, b1, b2, stress, q, rate_v)
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)

@@ -346,7 +346,7 @@ def _stretching_norms_rz(v, rc, hr, hz, Vs, nd, split):
             if _soil_volume(Vs, rc, hr, hz, i, k) == 0.0:
                 nd[i, k] = 0.0
                 continue
-            L, _ = split_gradient_rz(v, i, k, hr[i], hz[k], rc[i], split)
+            L, _ = split_gradient_rz(v, np.int64(i), k, hr[i], hz[k], rc[i], split)  # (int64: one compiled version)
             drz = 0.5 * (L[1] + L[2])
             nd[i, k] = np.sqrt(L[0] * L[0] + L[4] * L[4] + L[3] * L[3] + 2.0 * drz * drz)
 

@@ -77,11 +77,11 @@ def _fold(buf, j, M):
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def node_mass_cyl(mass, out, ties, k1=-1):
+def node_mass_cyl(mass, out, ties, k1):
     """Lumped nodal mass: an eighth of each adjacent cell's mass (a tied group is one cell; its slots' masses
     summed), the masses of the slaved node lines handed to the independent ones (:func:`_fold`; the slaved get 0);
     the axis nodes (0, j, k) of every j hold the whole axis node's mass (they are one node). ``k1`` ≥ 0: the node
-    rows below k1 only."""
+    rows below k1 only (−1: all; no default, which would compile a second version)."""
     nr, nt, nz = mass.shape
     k1 = nz + 1 if k1 < 0 else k1
     for i in prange(nr + 1):
@@ -368,7 +368,7 @@ def advance_nodes_cyl(
 
 
 @njit(**KERNEL_OPTIONS)
-def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz, si, sk, zi, rb, m=1):
+def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz, si, sk, zi, rb, m):
     """Velocity gradient L (9-tuple, row-major L_ab, a, b ∈ r, θ, z) at the centre of cell (i, j, k) (module
     docstring) and the hourglass amplitudes q_α = Σ h_αI v_I (α = ξη, ηζ, ξζ, ξηζ; 4 × 3 as a 12-tuple). ``m``:
     the cell spans m sectors from node line j (a tied group; ``dth`` is then its whole angle).

@@ -68,55 +68,70 @@ def volume_change_cyl(r, hr, dth, hz, u, dt, Vs, Vcur, si, sk, uz_in, ur_b):
                 Vs[i, j, k] *= J
 
 
-@njit(**KERNEL_OPTIONS)
-def _turn_tensors(a, theta, offsets, sign):
-    """Turn the symmetric tensors (11, 22, 33, 12, 13, 23) stored at ``offsets`` of the last axis of the cell
-    array ``a`` (nr, nθ, nz, ·) from the cells' (r, θ, z) bases to Cartesian (``sign`` = +1) or back (−1);
-    ``theta`` (nr, nθ): the angle of each slot's basis (a tied group's centre)."""
-    nr, nt, nz, _ = a.shape
-    for j in range(nt):
-        for i in range(nr):
+@njit(inline="always", **KERNEL_OPTIONS)
+def _turn_tensor(a, i, j, k, o, c, s):
+    """The symmetric tensor (11, 22, 33, 12, 13, 23) at ``a[i, j, k, o:o + 6]`` turned by the angle (c, s) about
+    z (cos, sin; from the cell's (r, θ, z) basis to Cartesian, or back with −sin)."""
+    rr = a[i, j, k, o]
+    tt = a[i, j, k, o + 1]
+    rt = a[i, j, k, o + 3]
+    rz = a[i, j, k, o + 4]
+    tz = a[i, j, k, o + 5]
+    c2 = c * c
+    s2 = s * s
+    cs = c * s
+    a[i, j, k, o] = c2 * rr + s2 * tt - 2.0 * cs * rt
+    a[i, j, k, o + 1] = s2 * rr + c2 * tt + 2.0 * cs * rt
+    a[i, j, k, o + 3] = cs * (rr - tt) + (c2 - s2) * rt
+    a[i, j, k, o + 4] = c * rz - s * tz
+    a[i, j, k, o + 5] = s * rz + c * tz
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def _turn_vector(a, i, j, k, o, c, s):
+    """The vector (r, θ, z) at ``a[i, j, k, o:o + 3]`` turned by (c, s) about z (as :func:`_turn_tensor`)."""
+    x = a[i, j, k, o]
+    y = a[i, j, k, o + 1]
+    a[i, j, k, o] = c * x - s * y
+    a[i, j, k, o + 1] = s * x + c * y
+
+
+@njit(parallel=True, **KERNEL_OPTIONS)
+def _turn_cells(stress, state, theta, tensors, vectors, sign):
+    """Turn every cell's stress, the symmetric tensors at ``tensors`` and the vectors at ``vectors`` of the last
+    axis of ``state`` from the cells' (r, θ, z) bases to Cartesian (``sign`` = +1) or back (−1); ``theta``
+    (nr, nθ): the angle of each slot's basis (a tied group's centre)."""
+    nr, nt, nz, _ = stress.shape
+    for i in prange(nr):
+        for j in range(nt):
             c = np.cos(theta[i, j])
             s = sign * np.sin(theta[i, j])
-            c2 = c * c
-            s2 = s * s
-            cs = c * s
             for k in range(nz):
-                for o in offsets:
-                    rr = a[i, j, k, o]
-                    tt = a[i, j, k, o + 1]
-                    rt = a[i, j, k, o + 3]
-                    rz = a[i, j, k, o + 4]
-                    tz = a[i, j, k, o + 5]
-                    a[i, j, k, o] = c2 * rr + s2 * tt - 2.0 * cs * rt
-                    a[i, j, k, o + 1] = s2 * rr + c2 * tt + 2.0 * cs * rt
-                    a[i, j, k, o + 3] = cs * (rr - tt) + (c2 - s2) * rt
-                    a[i, j, k, o + 4] = c * rz - s * tz
-                    a[i, j, k, o + 5] = s * rz + c * tz
+                _turn_tensor(stress, i, j, k, 0, c, s)
+                for o in tensors:
+                    _turn_tensor(state, i, j, k, o, c, s)
+                for o in vectors:
+                    _turn_vector(state, i, j, k, o, c, s)
 
 
-@njit(**KERNEL_OPTIONS)
-def _turn_vectors(a, theta, offsets, sign):
-    """Turn the vectors (r, θ, z) at ``offsets`` of the last axis of ``a`` (n1, nθ', n3, ·) to Cartesian
-    (``sign`` = +1) or back (−1); ``theta`` (n1, nθ'): the angle of each basis."""
-    n1, nt, n3, _ = a.shape
-    for j in range(nt):
-        for i in range(n1):
+@njit(parallel=True, **KERNEL_OPTIONS)
+def _turn_nodes(v, theta, sign):
+    """Turn the node velocities (r, θ, z) to Cartesian (``sign`` = +1) or back (−1); ``theta`` (nr+1, nθ+1): the
+    angle of each node line's basis."""
+    n1, nt, n3, _ = v.shape
+    for i in prange(n1):
+        for j in range(nt):
             c = np.cos(theta[i, j])
             s = sign * np.sin(theta[i, j])
             for k in range(n3):
-                for o in offsets:
-                    x = a[i, j, k, o]
-                    y = a[i, j, k, o + 1]
-                    a[i, j, k, o] = c * x - s * y
-                    a[i, j, k, o + 1] = s * x + c * y
+                _turn_vector(v, i, j, k, 0, c, s)
 
 
-@njit(**KERNEL_OPTIONS)
+@njit(parallel=True, **KERNEL_OPTIONS)
 def node_copies_mass(mass, out):
     """Σ m_cell/8 at every node, the axis copies unmerged (each its own share)."""
     nr, nt, nz = mass.shape
-    for i in range(nr + 1):
+    for i in prange(nr + 1):
         for j in range(nt + 1):
             for k in range(nz + 1):
                 s = 0.0
@@ -125,6 +140,20 @@ def node_copies_mass(mass, out):
                         for ck in range(max(k - 1, 0), min(k + 1, nz)):
                             s += mass[ci, cj, ck]
                 out[i, j, k] = 0.125 * s
+
+
+@njit(**KERNEL_OPTIONS)
+def _largest_motions(u):
+    """(largest |u_d| over the nodes and components, largest |u_θ|)."""
+    a = 0.0
+    b = 0.0
+    n1, n2, n3, _ = u.shape
+    for i in range(n1):
+        for j in range(n2):
+            for k in range(n3):
+                a = max(a, abs(u[i, j, k, 0]), abs(u[i, j, k, 2]))
+                b = max(b, abs(u[i, j, k, 1]))
+    return max(a, b), b
 
 
 @njit(**KERNEL_OPTIONS)
@@ -261,7 +290,9 @@ def tensor_offsets(state_names: tuple[str, ...]) -> tuple[int, ...]:
 
 
 _ORDERS = ((0, 1, 2), (2, 1, 0))
-_PERM = {0: (1, 2, 0), 1: (0, 2, 1), 2: (1, 0, 2)}
+# the arrays transposed so that the sweep's axis is the last and the first (the sweeps' parallel one) is r or z,
+# not the few sectors
+_PERM = {0: (2, 1, 0), 1: (0, 2, 1), 2: (0, 1, 2)}
 
 
 def remap_cyl(
@@ -300,49 +331,54 @@ def remap_cyl(
     ``ties``: the grid's tied sectors per ring (module docstring; None: none). Returns (mass lost through the
     top, soil volume capped)."""
     nr1, nt1, nz1 = nmass.shape
-    hr = np.diff(r)
-    rc = 0.5 * (r[1:] + r[:-1])
-    sz_ = np.zeros(nt1) if split_z is None else split_z
-    sr_ = np.zeros(nt1) if split_r is None else split_r
-    volume_change_cyl(r, hr, dth, hz, displacement, 1.0, Vs, Vcur, split[0], split[1], sz_, sr_)
     if work is None:
         work = {}
     if work.get("shape") != nmass.shape:
+        hr = np.diff(r)
+        hth = np.full(nt1 - 1, dth)
+        factors = None if ties is None else np.r_[nt1 - 1, ties].astype(np.int64)
         work.update(
             shape=nmass.shape,
             u3=np.empty(nmass.shape + (3,)),
             m_cur=np.empty(nmass.shape),
             m_next=np.empty(nmass.shape),
+            lumped=np.empty(nmass.shape),
             phi=np.empty(Vs.shape),
             theta_n=np.broadcast_to(dth * np.arange(nt1), (nr1, nt1)).copy(),
             theta_c=_group_centres(dth, nt1 - 1, np.ones(nr1 - 1, dtype=np.int64) if ties is None else ties),
+            hr=hr,
+            # the face areas of each sweep's transposed arrays: h1[first index] × h2[second]
+            h={0: (np.ascontiguousarray(hz), hth), 1: (hr, np.ascontiguousarray(hz)), 2: (0.5 * (r[1:] + r[:-1]) * hr, hth)},
+            tensors=np.array(state_tensors, dtype=np.int64),
+            vectors=np.array([hourglass_offset + 3 * a for a in range(4)], dtype=np.int64),
+            factors=factors,
+            tied=factors is not None and int(np.max(ties)) > 1,
+            all_active=np.ones(Vs.shape, dtype=np.bool_),
+            no_split=np.zeros(nt1),
         )
-    u3, m_cur, m_next, phi = work["u3"], work["m_cur"], work["m_next"], work["phi"]
+    sz_ = work["no_split"] if split_z is None else split_z
+    sr_ = work["no_split"] if split_r is None else split_r
+    volume_change_cyl(r, work["hr"], dth, hz, displacement, 1.0, Vs, Vcur, split[0], split[1], sz_, sr_)
+    u3, m_cur, m_next, phi, h = work["u3"], work["m_cur"], work["m_next"], work["phi"], work["h"]
     u3[...] = displacement
     u3[..., 0] *= r[:, None, None]  # an r face's flux: u_r r_f × Δθ h_z
     node_copies_mass(mass, m_cur)
-    hth = np.full(nt1 - 1, dth)
-    h = {0: (hth, np.ascontiguousarray(hz)), 1: (hr, np.ascontiguousarray(hz)), 2: (hth, rc * hr)}
     if active is None:
-        active = np.ones(Vs.shape, dtype=np.bool_)
-    tied = ties is not None and int(np.max(ties)) > 1
-    tens = np.array(state_tensors, dtype=np.int64)
-    hgo = np.array([hourglass_offset + 3 * a for a in range(4)], dtype=np.int64)
+        active = work["all_active"]
+    tens, hgo = work["tensors"], work["vectors"]
     lost = 0.0
     capped = 0.0
     # no motion round the axis (to round-off: an axisymmetric one): the θ sweep would move nothing
-    umax = float(np.abs(displacement).max())
-    skip_theta = float(np.abs(displacement[..., 1]).max()) <= 1e-12 * umax
+    umax, utheta = _largest_motions(displacement)
+    skip_theta = utheta <= 1e-12 * umax
     for axis in _ORDERS[parity % 2]:
         if axis == 1 and skip_theta:
             continue
         p = _PERM[axis]
         pc = p + (3,)
         if axis == 1:  # across θ: Cartesian components
-            _turn_tensors(stress, work["theta_c"], np.zeros(1, dtype=np.int64), 1.0)
-            _turn_tensors(state, work["theta_c"], tens, 1.0)
-            _turn_vectors(state, work["theta_c"], hgo, 1.0)
-            _turn_vectors(v, work["theta_n"], np.zeros(1, dtype=np.int64), 1.0)
+            _turn_cells(stress, state, work["theta_c"], tens, hgo, 1.0)
+            _turn_nodes(v, work["theta_n"], 1.0)
         soil_fraction(Vs, Vcur, phi)
         lo, ca = sweep_cells(
             h[axis][0],
@@ -367,19 +403,17 @@ def remap_cyl(
         sweep_nodes(fbar.transpose(p), m_cur.transpose(p), m_next.transpose(p), v.transpose(pc), mtiny)
         m_cur, m_next = m_next, m_cur
         if axis == 1:
-            _turn_tensors(stress, work["theta_c"], np.zeros(1, dtype=np.int64), -1.0)
-            _turn_tensors(state, work["theta_c"], tens, -1.0)
-            _turn_vectors(state, work["theta_c"], hgo, -1.0)
-            _turn_vectors(v, work["theta_n"], np.zeros(1, dtype=np.int64), -1.0)
-    if tied:
+            _turn_cells(stress, state, work["theta_c"], tens, hgo, -1.0)
+            _turn_nodes(v, work["theta_n"], -1.0)
+    if work["tied"]:
         # the slots swept as fine cells, then each group made one again (in its basis); the nodes' momentum
         # folded onto the independent lines and kept while their masses become the groups' lumped ones
         _tie_average(ties, Vs, Vcur, mass, stress, state)
-        factors = np.r_[nt1 - 1, ties].astype(np.int64)
+        factors = work["factors"]
         _fold_nodes(m_cur, v, factors)
         _merge_axis(m_cur, v, nmass)
-        lumped = np.empty_like(nmass)
-        node_mass_cyl(mass, lumped, ties)
+        lumped = work["lumped"]
+        node_mass_cyl(mass, lumped, ties, -1)
         _keep_momentum(nmass, lumped, v, factors)
         follow_masters(v, factors)
         return lost, capped

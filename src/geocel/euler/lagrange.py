@@ -41,9 +41,9 @@ def characteristic_length(hx, hy, hz):
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def node_mass(mass, active, out, i0=0, i1=-1, j0=0, j1=-1, k0=0, k1=-1):
+def node_mass(mass, active, out, i0, i1, j0, j1, k0, k1):
     """Lumped nodal mass: an eighth of each adjacent active cell's soil mass, for the nodes of the box
-    [i0, i1) × [j0, j1) × [k0, k1) (default, −1: all nodes)."""
+    [i0, i1) × [j0, j1) × [k0, k1) (−1: to the last node; no defaults, which would compile a second version)."""
     nx, ny, nz = mass.shape
     i1 = nx + 1 if i1 < 0 else i1
     j1 = ny + 1 if j1 < 0 else j1
@@ -559,7 +559,7 @@ def stretching_norms(v, hx, hy, hz, active, Vs, nd, Vw):
                 Vw[i, j, k] = 0.0
                 if not active[i, j] or Vs[i, j, k] < PHI_MIN * hx[i] * hy[j] * hz[k]:
                     continue
-                L, _ = _velocity_gradient(v, i, j, k, hx[i], hy[j], hz[k])
+                L, _ = _velocity_gradient(v, np.int64(i), j, k, hx[i], hy[j], hz[k])  # (int64: one compiled version)
                 d3 = 0.5 * (L[1] + L[3])
                 d4 = 0.5 * (L[2] + L[6])
                 d5 = 0.5 * (L[5] + L[7])

@@ -192,7 +192,7 @@ class CylindricalField(FieldBalances):
 
     def initialise(self) -> None:
         """Nodal masses, the tiny-mass threshold, the initial mass and Δt from the current cell arrays."""
-        node_mass_cyl(self.mass, self.nmass, self.grid.ties)
+        node_mass_cyl(self.mass, self.nmass, self.grid.ties, -1)
         soil = self.Vs > PHI_MIN * self.volume
         if soil.any():
             rho = self.mass[soil] / self.Vs[soil]

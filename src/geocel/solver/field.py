@@ -92,7 +92,7 @@ def node_spacing(h: np.ndarray) -> np.ndarray:
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def accumulate_displacement(rx, ry, rz, v, dt, u, wz=0.0):
+def accumulate_displacement(rx, ry, rz, v, dt, u, wz):
     """u ← u + (v − w) Δt at every node, w = (0, 0, ``wz``) the grid's own velocity (the pile's frame; 0 for
     a fixed grid). Returns the largest |u_d| r_d over the nodes and directions, with r_d the
     reciprocal node spacing (:func:`node_spacing`): the Courant number of the pending remap."""
@@ -406,7 +406,7 @@ class SoilField(FieldBalances):
         self.state[...] = 0.0
         self.state[..., : self.nstate] = state0
         self.state[..., 0] = e0[None, None, :]
-        node_mass(self.mass, self.active2d, self.nmass)
+        node_mass(self.mass, self.active2d, self.nmass, 0, -1, 0, -1, 0, -1)
         full_node = float(rho.max() * self.volume[self.active3].min())
         self.mass_tiny = 1e-9 * full_node
         self.initial_mass = float(self.mass.sum())
