@@ -51,6 +51,7 @@ from .lagrange import (
     MAX_CELL_SUBSTEPS,
     PHI_MIN,
     column_sums,
+    critical_step,
     mode_limit,
     strength_reserve,
     substeps,
@@ -351,6 +352,76 @@ def _stretching_norms_rz(v, rc, hr, hz, Vs, nd, split):
             nd[i, k] = np.sqrt(L[0] * L[0] + L[4] * L[4] + L[3] * L[3] + 2.0 * drz * drz)
 
 
+@njit(**KERNEL_OPTIONS)
+def _update_rows_rz(
+    tag, prm, rc, hr, hz, Vs, mass, stress, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s, hoff, mf, cf,
+    max_sub, nlf, nonlocal_, nchunk, split, v, s2, st2, ch,
+):  # fmt: skip
+    """The rows ch, ch + nchunk, … of :func:`update_cells_rz` (its parallel loop's body as a function of its own,
+    which compiles faster); returns their (stable Δt, flat index of the cell governing it)."""
+    ncr, ncz = Vs.shape
+    dbuf = np.empty(6)
+    wbuf = np.empty(3)
+    best = np.inf
+    best_c = -1
+    for i in range(ch, ncr, nchunk):
+        r_c = rc[i]
+        h_r = hr[i]
+        for k in range(ncz):
+            c = i * ncz + k
+            h_z = hz[k]
+            area = h_r * h_z
+            vol = r_c * area
+            vs = Vs[i, k]
+            if vs < PHI_MIN * vol:
+                for d in range(6):
+                    stress[i, k, d] = 0.0
+                q[i, k] = 0.0
+                hg[i, k, 0] = 0.0
+                hg[i, k, 1] = 0.0
+                st2[c, hoff] = 0.0
+                st2[c, hoff + 1] = 0.0
+                flags[i, k] = 0
+                continue
+            L, qh = split_gradient_rz(v, i, k, h_r, h_z, r_c, split)
+            D = (L[0] * dt, L[4] * dt, L[3] * dt, 0.0, 0.5 * (L[1] + L[2]) * dt, 0.0)
+            W = (0.0, 0.5 * (L[1] - L[2]) * dt, 0.0)
+            nsub = substeps(D, max_sub)
+            nl = nlf[i, k] if nonlocal_ else 1.0
+            M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, nl, dbuf, wbuf)
+            if nsub == MAX_CELL_SUBSTEPS:
+                f |= SUBSTEP_LIMIT
+            flags[i, k] = f
+            modulus[i, k] = M
+            rho = mass[i, k] / vs
+            cd = np.sqrt(M / rho)
+            le = characteristic_length_rz(h_r, h_z)
+            tr = L[0] + L[3] + L[4]
+            qn = -b1 * rho * cd * le * tr
+            if tr < 0.0:
+                qn += rho * (b2 * le * tr) ** 2
+            q[i, k] = qn
+            # hourglass: K_d/V = 4G/h_d², Q̇_d = K_d q_d/16, per unit volume; bounded at the sub-points
+            gt = G_FROM_M * M
+            chg = kappa * cd / (4.0 * np.sqrt(area))
+            kfac = kappa_s * gt * dt / 4.0
+            hcell = (h_r, 1.0, h_z)
+            reserve = strength_reserve(s2, c, mf, cf)  # (once for both modes)
+            for d in range(2):
+                h_d = h_r if d == 0 else h_z
+                sq = st2[c, hoff + d] + kfac * qh[d] / (h_d * h_d)
+                lim = mode_limit(s2, c, 2, 2 * d, hcell, mf, reserve) / (6.0 * h_d)
+                sq = min(max(sq, -lim), lim)
+                st2[c, hoff + d] = sq
+                hg[i, k, d] = chg * qh[d] + sq / rho
+            vmax = np.sqrt(L[0] ** 2 + L[3] ** 2 + L[4] ** 2) * le
+            dtc = critical_step(le, cd, b1, b2, tr, vmax)
+            if dtc < best:
+                best = dtc
+                best_c = c
+    return best, best_c
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
 def update_cells_rz(
     tag,
@@ -405,68 +476,10 @@ def update_cells_rz(
     dts = np.full(nchunk, np.inf)
     args = np.zeros(nchunk, dtype=np.int64)
     for ch in prange(nchunk):
-        dbuf = np.empty(6)
-        wbuf = np.empty(3)
-        best = np.inf
-        best_c = -1
-        for i in range(ch, ncr, nchunk):
-            r_c = rc[i]
-            h_r = hr[i]
-            for k in range(ncz):
-                c = i * ncz + k
-                h_z = hz[k]
-                area = h_r * h_z
-                vol = r_c * area
-                vs = Vs[i, k]
-                if vs < PHI_MIN * vol:
-                    for d in range(6):
-                        stress[i, k, d] = 0.0
-                    q[i, k] = 0.0
-                    hg[i, k, 0] = 0.0
-                    hg[i, k, 1] = 0.0
-                    st2[c, hoff] = 0.0
-                    st2[c, hoff + 1] = 0.0
-                    flags[i, k] = 0
-                    continue
-                L, qh = split_gradient_rz(v, i, k, h_r, h_z, r_c, split)
-                D = (L[0] * dt, L[4] * dt, L[3] * dt, 0.0, 0.5 * (L[1] + L[2]) * dt, 0.0)
-                W = (0.0, 0.5 * (L[1] - L[2]) * dt, 0.0)
-                nsub = substeps(D, max_sub)
-                nl = nlf[i, k] if nonlocal_ else 1.0
-                M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, nl, dbuf, wbuf)
-                if nsub == MAX_CELL_SUBSTEPS:
-                    f |= SUBSTEP_LIMIT
-                flags[i, k] = f
-                modulus[i, k] = M
-                rho = mass[i, k] / vs
-                cd = np.sqrt(M / rho)
-                le = characteristic_length_rz(h_r, h_z)
-                tr = L[0] + L[3] + L[4]
-                qn = -b1 * rho * cd * le * tr
-                if tr < 0.0:
-                    qn += rho * (b2 * le * tr) ** 2
-                q[i, k] = qn
-                # hourglass: K_d/V = 4G/h_d², Q̇_d = K_d q_d/16, per unit volume; bounded at the sub-points
-                gt = G_FROM_M * M
-                chg = kappa * cd / (4.0 * np.sqrt(area))
-                kfac = kappa_s * gt * dt / 4.0
-                hcell = (h_r, 1.0, h_z)
-                reserve = strength_reserve(s2, c, mf, cf)  # (once for both modes)
-                for d in range(2):
-                    h_d = h_r if d == 0 else h_z
-                    sq = st2[c, hoff + d] + kfac * qh[d] / (h_d * h_d)
-                    lim = mode_limit(s2, c, 2, 2 * d, hcell, mf, reserve) / (6.0 * h_d)
-                    sq = min(max(sq, -lim), lim)
-                    st2[c, hoff + d] = sq
-                    hg[i, k, d] = chg * qh[d] + sq / rho
-                vmax = np.sqrt(L[0] ** 2 + L[3] ** 2 + L[4] ** 2) * le
-                xi_b = b1 - b2 * b2 * le * min(tr, 0.0) / max(cd, 1e-30)
-                dtc = le / (cd * (np.sqrt(1.0 + xi_b * xi_b) + xi_b) + vmax)
-                if dtc < best:
-                    best = dtc
-                    best_c = c
-        dts[ch] = best
-        args[ch] = best_c
+        dts[ch], args[ch] = _update_rows_rz(
+            tag, prm, rc, hr, hz, Vs, mass, stress, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s, hoff, mf,
+            cf, max_sub, nlf, nonlocal_, nchunk, split, v, s2, st2, np.int64(ch),
+        )  # fmt: skip
     dt_min = np.inf
     arg = -1
     for ch in range(nchunk):

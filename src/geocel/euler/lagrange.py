@@ -33,6 +33,16 @@ MASS_TINY = 1.0e-12
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
+def critical_step(le, cd, b1, b2, tr, vmax):
+    """Critical step of central differences for a cell of length ``le`` (m), wave speed ``cd`` (m/s) and the
+    material's own speed ``vmax`` (m/s), with the damping ratio ξ = b1 − b2² L_e min(tr, 0)/c of the bulk
+    viscosity at the volumetric strain rate ``tr`` (1/s): L_e / (c(√(1+ξ²) + ξ) + v_max), the (L_e/c)(√(1+ξ²) − ξ)
+    of a damped oscillator with the advective speed added."""
+    xi_b = b1 - b2 * b2 * le * min(tr, 0.0) / max(cd, 1e-30)
+    return le / (cd * (np.sqrt(1.0 + xi_b * xi_b) + xi_b) + vmax)
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
 def characteristic_length(hx, hy, hz):
     """L_e = 1/√(h_x⁻² + h_y⁻² + h_z⁻²): with it, Δt = L_e/c is the Flanagan–Belytschko bound of the
     uniform-strain hexahedron with lumped mass (a cube: h/√3; the exact single-cube limit for ν = 0.3 is
@@ -379,6 +389,97 @@ def substeps(D, max_sub):
     return int(min(n, MAX_CELL_SUBSTEPS))
 
 
+@njit(**KERNEL_OPTIONS)
+def _update_slabs(
+    tag, prm, hx, hy, hz, active, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s,
+    hoff, mf, cf, max_sub, nlf, nonlocal_, s2, st2, i0, i1,
+):  # fmt: skip
+    """The cells of the x slabs i0 … i1 − 1 of :func:`update_cells` (its parallel loop's body as a function of its
+    own, which compiles faster); returns their (stable Δt, index of the cell governing it)."""
+    _, ny, nz = Vs.shape
+    dbuf = np.empty(6)
+    wbuf = np.empty(3)
+    best = np.inf
+    best_c = -1
+    for i in range(i0, i1):
+        for j in range(ny):
+            if not active[i, j]:
+                continue
+            for k in range(nz):
+                c = (i * ny + j) * nz + k
+                vol = hx[i] * hy[j] * hz[k]
+                vs = Vs[i, j, k]
+                if vs < PHI_MIN * vol:
+                    for d in range(6):
+                        stress[i, j, k, d] = 0.0
+                    q[i, j, k] = 0.0
+                    for a in range(4):
+                        for d in range(3):
+                            hg[i, j, k, a, d] = 0.0
+                            st2[c, hoff + 3 * a + d] = 0.0
+                    flags[i, j, k] = 0
+                    continue
+                L, qh = _velocity_gradient(v, i, j, k, hx[i], hy[j], hz[k])
+                D = (
+                    L[0] * dt,
+                    L[4] * dt,
+                    L[8] * dt,
+                    0.5 * (L[1] + L[3]) * dt,
+                    0.5 * (L[2] + L[6]) * dt,
+                    0.5 * (L[5] + L[7]) * dt,
+                )
+                w12 = 0.5 * (L[1] - L[3]) * dt
+                w13 = 0.5 * (L[2] - L[6]) * dt
+                w23 = 0.5 * (L[5] - L[7]) * dt
+                nsub = substeps(D, max_sub)
+                M, f = cell_update(tag, prm, s2, st2, c, D, (w12, w13, w23), nsub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
+                if nsub == MAX_CELL_SUBSTEPS:
+                    f |= SUBSTEP_LIMIT
+                flags[i, j, k] = f
+                modulus[i, j, k] = M
+                rho = mass[i, j, k] / vs
+                cd = np.sqrt(M / rho)
+                le = characteristic_length(hx[i], hy[j], hz[k])
+                # bulk viscosity (Abaqus-type): linear always, quadratic in compression
+                tr = L[0] + L[4] + L[8]
+                qn = -b1 * rho * cd * le * tr
+                if tr < 0.0:
+                    qn += rho * (b2 * le * tr) ** 2
+                q[i, j, k] = qn
+                # tangent shear modulus of this step's update, measured where the deviatoric strain
+                # increment is large enough for the stress change to resolve it; else the last value
+                # the stiffness of the modes: the soil's stiffest current response (its unloading
+                # shear modulus, from the P-wave modulus M with ν = 0.2), as the sub-points of a fully
+                # integrated cell that unload would show
+                gt = G_FROM_M * M
+                # hourglass resistance, stored per unit cell mass (multiplied by the current mass when the
+                # forces are gathered): viscous κ ρ c V^{2/3}/8 · q_α plus the physical stresses
+                a23 = vol ** (2.0 / 3.0) / vol  # V^{2/3} per unit volume
+                chg = kappa * cd * a23 / 8.0
+                kfac = kappa_s * gt * dt / 64.0
+                hcell = (hx[i], hy[j], hz[k])
+                # what the 12 modes share, once per cell (the stores below could alias the stress, so
+                # the compiler would otherwise reload and recompute it for every mode)
+                inv = (4.0 / (hx[i] * hx[i]), 4.0 / (hy[j] * hy[j]), 4.0 / (hz[k] * hz[k]))
+                reserve = strength_reserve(s2, c, mf, cf)
+                for a in range(4):
+                    for d in range(3):
+                        sq = st2[c, hoff + 3 * a + d]
+                        sq += kfac * hourglass_stiffness(a, d, inv) * qh[3 * a + d]
+                        fac = (36.0 if a == 3 else 12.0) * hcell[d]  # stress amplitude per sq
+                        lim = mode_limit(s2, c, a, d, hcell, mf, reserve) / fac
+                        sq = min(max(sq, -lim), lim)
+                        st2[c, hoff + 3 * a + d] = sq
+                        hg[i, j, k, a, d] = chg * qh[3 * a + d] + sq / rho
+                # stable step of this cell, with the viscosity correction of the explicit scheme
+                vmax = np.sqrt(L[0] ** 2 + L[4] ** 2 + L[8] ** 2) * le
+                dtc = critical_step(le, cd, b1, b2, tr, vmax)
+                if dtc < best:
+                    best = dtc
+                    best_c = c
+    return best, best_c
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
 def update_cells(
     tag,
@@ -437,90 +538,11 @@ def update_cells(
     dts = np.full(nchunk, np.inf)
     args = np.zeros(nchunk, dtype=np.int64)
     for ch in prange(nchunk):
-        dbuf = np.empty(6)
-        wbuf = np.empty(3)
-        best = np.inf
-        best_c = -1
-        for i in range(ch * nx // nchunk, (ch + 1) * nx // nchunk):
-            for j in range(ny):
-                if not active[i, j]:
-                    continue
-                for k in range(nz):
-                    c = (i * ny + j) * nz + k
-                    vol = hx[i] * hy[j] * hz[k]
-                    vs = Vs[i, j, k]
-                    if vs < PHI_MIN * vol:
-                        for d in range(6):
-                            stress[i, j, k, d] = 0.0
-                        q[i, j, k] = 0.0
-                        for a in range(4):
-                            for d in range(3):
-                                hg[i, j, k, a, d] = 0.0
-                                st2[c, hoff + 3 * a + d] = 0.0
-                        flags[i, j, k] = 0
-                        continue
-                    L, qh = _velocity_gradient(v, i, j, k, hx[i], hy[j], hz[k])
-                    D = (
-                        L[0] * dt,
-                        L[4] * dt,
-                        L[8] * dt,
-                        0.5 * (L[1] + L[3]) * dt,
-                        0.5 * (L[2] + L[6]) * dt,
-                        0.5 * (L[5] + L[7]) * dt,
-                    )
-                    w12 = 0.5 * (L[1] - L[3]) * dt
-                    w13 = 0.5 * (L[2] - L[6]) * dt
-                    w23 = 0.5 * (L[5] - L[7]) * dt
-                    nsub = substeps(D, max_sub)
-                    M, f = cell_update(tag, prm, s2, st2, c, D, (w12, w13, w23), nsub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
-                    if nsub == MAX_CELL_SUBSTEPS:
-                        f |= SUBSTEP_LIMIT
-                    flags[i, j, k] = f
-                    modulus[i, j, k] = M
-                    rho = mass[i, j, k] / vs
-                    cd = np.sqrt(M / rho)
-                    le = characteristic_length(hx[i], hy[j], hz[k])
-                    # bulk viscosity (Abaqus-type): linear always, quadratic in compression
-                    tr = L[0] + L[4] + L[8]
-                    qn = -b1 * rho * cd * le * tr
-                    if tr < 0.0:
-                        qn += rho * (b2 * le * tr) ** 2
-                    q[i, j, k] = qn
-                    # tangent shear modulus of this step's update, measured where the deviatoric strain
-                    # increment is large enough for the stress change to resolve it; else the last value
-                    # the stiffness of the modes: the soil's stiffest current response (its unloading
-                    # shear modulus, from the P-wave modulus M with ν = 0.2), as the sub-points of a fully
-                    # integrated cell that unload would show
-                    gt = G_FROM_M * M
-                    # hourglass resistance, stored per unit cell mass (multiplied by the current mass when the
-                    # forces are gathered): viscous κ ρ c V^{2/3}/8 · q_α plus the physical stresses
-                    a23 = vol ** (2.0 / 3.0) / vol  # V^{2/3} per unit volume
-                    chg = kappa * cd * a23 / 8.0
-                    kfac = kappa_s * gt * dt / 64.0
-                    hcell = (hx[i], hy[j], hz[k])
-                    # what the 12 modes share, once per cell (the stores below could alias the stress, so
-                    # the compiler would otherwise reload and recompute it for every mode)
-                    inv = (4.0 / (hx[i] * hx[i]), 4.0 / (hy[j] * hy[j]), 4.0 / (hz[k] * hz[k]))
-                    reserve = strength_reserve(s2, c, mf, cf)
-                    for a in range(4):
-                        for d in range(3):
-                            sq = st2[c, hoff + 3 * a + d]
-                            sq += kfac * hourglass_stiffness(a, d, inv) * qh[3 * a + d]
-                            fac = (36.0 if a == 3 else 12.0) * hcell[d]  # stress amplitude per sq
-                            lim = mode_limit(s2, c, a, d, hcell, mf, reserve) / fac
-                            sq = min(max(sq, -lim), lim)
-                            st2[c, hoff + 3 * a + d] = sq
-                            hg[i, j, k, a, d] = chg * qh[3 * a + d] + sq / rho
-                    # stable step of this cell, with the viscosity correction of the explicit scheme
-                    vmax = np.sqrt(L[0] ** 2 + L[4] ** 2 + L[8] ** 2) * le
-                    xi_b = b1 - b2 * b2 * le * min(tr, 0.0) / max(cd, 1e-30)
-                    # critical step of central differences with damping ratio ξ: (L_e/c)(√(1+ξ²) − ξ)
-                    dtc = le / (cd * (np.sqrt(1.0 + xi_b * xi_b) + xi_b) + vmax)
-                    if dtc < best:
-                        best = dtc
-                        best_c = c
-        dts[ch] = best
-        args[ch] = best_c
+        dts[ch], args[ch] = _update_slabs(
+            tag, prm, hx, hy, hz, active, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa,
+            kappa_s, hoff, mf, cf, max_sub, nlf, nonlocal_, s2, st2, np.int64(ch * nx // nchunk),
+            np.int64((ch + 1) * nx // nchunk),
+        )  # fmt: skip
     dt_min = np.inf
     arg = -1
     for ch in range(nchunk):
