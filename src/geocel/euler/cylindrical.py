@@ -282,8 +282,8 @@ def _advance_ring(i, cf, ties, nmass, v, fix, vfix, fext, reaction, gravity, a_h
     """Node ring i of :func:`advance_nodes_cyl` (its parallel loop's body as a function of its own: it compiles in
     a third less time than inlined into the loop); the ring's energy terms are added to ``e``."""
     buf = np.empty((nt + 1, 9))
-    mo = ties[min(np.int64(i), nr - 1)]
-    M = ties[np.int64(i) - 1] if i > 0 else nt
+    mo = ties[min(i, nr - 1)]  # (i: int64, the caller's cast)
+    M = ties[i - 1] if i > 0 else nt
     for k in range(nz + 1):
         if i == 0:  # the axis: one node
             g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
