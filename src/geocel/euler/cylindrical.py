@@ -51,9 +51,7 @@ from .lagrange import (
     characteristic_length,
     column_sums,
     critical_step,
-    hourglass_stiffness,
-    mode_limit,
-    strength_reserve,
+    hourglass_modes,
     substeps,
 )
 from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
@@ -496,18 +494,7 @@ def _update_column(
         gt = G_FROM_M * M
         chg = kappa * cd / (16.0 * np.sqrt(h_r * h_z))  # r–z's viscous part (module docstring)
         kfac = kappa_s * gt * dt / 64.0
-        hcell = (h_r, h_t, h_z)
-        inv = (4.0 / (h_r * h_r), 4.0 / (h_t * h_t), 4.0 / (h_z * h_z))
-        reserve = strength_reserve(s2, c, mf, cf)
-        for a in range(4):
-            for d in range(3):
-                sq = st2[c, hoff + 3 * a + d]
-                sq += kfac * hourglass_stiffness(a, d, inv) * qh[3 * a + d]
-                fac = (36.0 if a == 3 else 12.0) * hcell[d]
-                lim = mode_limit(s2, c, a, d, hcell, mf, reserve) / fac
-                sq = min(max(sq, -lim), lim)
-                st2[c, hoff + 3 * a + d] = sq
-                hg[i, j, k, a, d] = chg * qh[3 * a + d] + sq / rho
+        hourglass_modes(s2, st2, hg, c, i, j, k, hoff, qh, (h_r, h_t, h_z), kfac, chg, rho, mf, cf)
         for s in range(j + 1, j + mt):  # the tied group's other slots
             for d in range(6):
                 stress[i, s, k, d] = stress[i, j, k, d]

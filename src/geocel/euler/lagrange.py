@@ -323,6 +323,28 @@ def hourglass_stiffness(a, d, inv):
     return (inv[b] + inv[c]) / 3.0
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def hourglass_modes(s2, st2, hg, c, i, j, k, hoff, qh, hcell, kfac, chg, rho, mf, cf):
+    """The 12 hourglass modes of cell c = (i, j, k) (box ``hcell``) after its material update: each generalised
+    stress ``st2[c, hoff + 3α + d]`` grows by ``kfac`` × the mode's stiffness × its amplitude ``qh`` and is
+    bounded by what the soil's strength allows at both sub-points (:func:`mode_limit`); ``hg[i, j, k]`` gets the
+    resistance per unit cell mass, the viscous ``chg`` q plus the stress over ``rho``. Shared by the 3D and the
+    cylindrical cell updates."""
+    # what the 12 modes share, once per cell (the stores below could alias the stress, so the compiler would
+    # otherwise reload and recompute it for every mode)
+    inv = (4.0 / (hcell[0] * hcell[0]), 4.0 / (hcell[1] * hcell[1]), 4.0 / (hcell[2] * hcell[2]))
+    reserve = strength_reserve(s2, c, mf, cf)
+    for a in range(4):
+        for d in range(3):
+            sq = st2[c, hoff + 3 * a + d]
+            sq += kfac * hourglass_stiffness(a, d, inv) * qh[3 * a + d]
+            fac = (36.0 if a == 3 else 12.0) * hcell[d]  # stress amplitude per sq
+            lim = mode_limit(s2, c, a, d, hcell, mf, reserve) / fac
+            sq = min(max(sq, -lim), lim)
+            st2[c, hoff + 3 * a + d] = sq
+            hg[i, j, k, a, d] = chg * qh[3 * a + d] + sq / rho
+
+
 @njit(**KERNEL_OPTIONS)
 def _velocity_gradient(v, i, j, k, hx, hy, hz):
     """Velocity gradient L (9-tuple, row-major L_ab = ∂v_a/∂x_b) at the centre of cell (i, j, k) and the
@@ -457,20 +479,7 @@ def _update_slabs(
                 a23 = vol ** (2.0 / 3.0) / vol  # V^{2/3} per unit volume
                 chg = kappa * cd * a23 / 8.0
                 kfac = kappa_s * gt * dt / 64.0
-                hcell = (hx[i], hy[j], hz[k])
-                # what the 12 modes share, once per cell (the stores below could alias the stress, so
-                # the compiler would otherwise reload and recompute it for every mode)
-                inv = (4.0 / (hx[i] * hx[i]), 4.0 / (hy[j] * hy[j]), 4.0 / (hz[k] * hz[k]))
-                reserve = strength_reserve(s2, c, mf, cf)
-                for a in range(4):
-                    for d in range(3):
-                        sq = st2[c, hoff + 3 * a + d]
-                        sq += kfac * hourglass_stiffness(a, d, inv) * qh[3 * a + d]
-                        fac = (36.0 if a == 3 else 12.0) * hcell[d]  # stress amplitude per sq
-                        lim = mode_limit(s2, c, a, d, hcell, mf, reserve) / fac
-                        sq = min(max(sq, -lim), lim)
-                        st2[c, hoff + 3 * a + d] = sq
-                        hg[i, j, k, a, d] = chg * qh[3 * a + d] + sq / rho
+                hourglass_modes(s2, st2, hg, c, i, j, k, hoff, qh, (hx[i], hy[j], hz[k]), kfac, chg, rho, mf, cf)
                 # stable step of this cell, with the viscosity correction of the explicit scheme
                 vmax = np.sqrt(L[0] ** 2 + L[4] ** 2 + L[8] ** 2) * le
                 dtc = critical_step(le, cd, b1, b2, tr, vmax)
