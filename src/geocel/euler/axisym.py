@@ -50,6 +50,7 @@ from .lagrange import (
     G_FROM_M,
     MAX_CELL_SUBSTEPS,
     PHI_MIN,
+    bulk_viscosity,
     column_sums,
     critical_step,
     mode_limit,
@@ -397,10 +398,7 @@ def _update_rows_rz(
             cd = np.sqrt(M / rho)
             le = characteristic_length_rz(h_r, h_z)
             tr = L[0] + L[3] + L[4]
-            qn = -b1 * rho * cd * le * tr
-            if tr < 0.0:
-                qn += rho * (b2 * le * tr) ** 2
-            q[i, k] = qn
+            q[i, k] = bulk_viscosity(b1, b2, rho, cd, le, tr)
             # hourglass: K_d/V = 4G/h_d², Q̇_d = K_d q_d/16, per unit volume; bounded at the sub-points
             gt = G_FROM_M * M
             chg = kappa * cd / (4.0 * np.sqrt(area))

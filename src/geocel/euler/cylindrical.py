@@ -48,10 +48,12 @@ from .lagrange import (
     G_FROM_M,
     MAX_CELL_SUBSTEPS,
     PHI_MIN,
+    bulk_viscosity,
     characteristic_length,
     column_sums,
     critical_step,
     hourglass_modes,
+    increments,
     substeps,
 )
 from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
@@ -468,15 +470,7 @@ def _update_column(
                 flags[i, s, k] = 0
             continue
         L, qh = velocity_gradient_cyl(v, i, j, k, h_r, r_c, dth * mt, h_z, si, sk, zi, rb, mt)
-        D = (
-            L[0] * dt,
-            L[4] * dt,
-            L[8] * dt,
-            0.5 * (L[1] + L[3]) * dt,
-            0.5 * (L[2] + L[6]) * dt,
-            0.5 * (L[5] + L[7]) * dt,
-        )
-        W = (0.5 * (L[1] - L[3]) * dt, 0.5 * (L[2] - L[6]) * dt, 0.5 * (L[5] - L[7]) * dt)
+        D, W = increments(L, dt)
         nsub = substeps(D, max_sub)
         M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
         if nsub == MAX_CELL_SUBSTEPS:
@@ -487,9 +481,7 @@ def _update_column(
         cd = np.sqrt(M / rho)
         le = characteristic_length(h_r, h_t if i > 0 else 2.0 * h_t, h_z)  # (the axis ring: its outer arc)
         tr = L[0] + L[4] + L[8]
-        qn = -b1 * rho * cd * le * tr
-        if tr < 0.0:
-            qn += rho * (b2 * le * tr) ** 2
+        qn = bulk_viscosity(b1, b2, rho, cd, le, tr)
         q[i, j, k] = qn
         gt = G_FROM_M * M
         chg = kappa * cd / (16.0 * np.sqrt(h_r * h_z))  # r–z's viscous part (module docstring)

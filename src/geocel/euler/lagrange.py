@@ -33,6 +33,32 @@ MASS_TINY = 1.0e-12
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
+def increments(L, dt):
+    """The strain and spin increments of the velocity gradient L (9-tuple, row-major) over Δt: D (11, 22, 33, 12,
+    13, 23) and W (12, 13, 23), as the soil models take them."""
+    D = (
+        L[0] * dt,
+        L[4] * dt,
+        L[8] * dt,
+        0.5 * (L[1] + L[3]) * dt,
+        0.5 * (L[2] + L[6]) * dt,
+        0.5 * (L[5] + L[7]) * dt,
+    )
+    W = (0.5 * (L[1] - L[3]) * dt, 0.5 * (L[2] - L[6]) * dt, 0.5 * (L[5] - L[7]) * dt)
+    return D, W
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def bulk_viscosity(b1, b2, rho, cd, le, tr):
+    """The bulk-viscosity pressure (Pa, Abaqus-type): linear always, quadratic in compression (tr < 0), for the
+    density ``rho``, wave speed ``cd``, length ``le`` and volumetric strain rate ``tr``."""
+    qn = -b1 * rho * cd * le * tr
+    if tr < 0.0:
+        qn += rho * (b2 * le * tr) ** 2
+    return qn
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
 def critical_step(le, cd, b1, b2, tr, vmax):
     """Critical step of central differences for a cell of length ``le`` (m), wave speed ``cd`` (m/s) and the
     material's own speed ``vmax`` (m/s), with the damping ratio ξ = b1 − b2² L_e min(tr, 0)/c of the bulk
@@ -442,19 +468,9 @@ def _update_slabs(
                     flags[i, j, k] = 0
                     continue
                 L, qh = _velocity_gradient(v, i, j, k, hx[i], hy[j], hz[k])
-                D = (
-                    L[0] * dt,
-                    L[4] * dt,
-                    L[8] * dt,
-                    0.5 * (L[1] + L[3]) * dt,
-                    0.5 * (L[2] + L[6]) * dt,
-                    0.5 * (L[5] + L[7]) * dt,
-                )
-                w12 = 0.5 * (L[1] - L[3]) * dt
-                w13 = 0.5 * (L[2] - L[6]) * dt
-                w23 = 0.5 * (L[5] - L[7]) * dt
+                D, W = increments(L, dt)
                 nsub = substeps(D, max_sub)
-                M, f = cell_update(tag, prm, s2, st2, c, D, (w12, w13, w23), nsub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
+                M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
                 if nsub == MAX_CELL_SUBSTEPS:
                     f |= SUBSTEP_LIMIT
                 flags[i, j, k] = f
@@ -462,12 +478,8 @@ def _update_slabs(
                 rho = mass[i, j, k] / vs
                 cd = np.sqrt(M / rho)
                 le = characteristic_length(hx[i], hy[j], hz[k])
-                # bulk viscosity (Abaqus-type): linear always, quadratic in compression
                 tr = L[0] + L[4] + L[8]
-                qn = -b1 * rho * cd * le * tr
-                if tr < 0.0:
-                    qn += rho * (b2 * le * tr) ** 2
-                q[i, j, k] = qn
+                q[i, j, k] = bulk_viscosity(b1, b2, rho, cd, le, tr)
                 # tangent shear modulus of this step's update, measured where the deviatoric strain
                 # increment is large enough for the stress change to resolve it; else the last value
                 # the stiffness of the modes: the soil's stiffest current response (its unloading
