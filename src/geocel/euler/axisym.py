@@ -43,19 +43,16 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..materials.flags import SUBSTEP_LIMIT
-from ..materials.kernels import cell_update
 from ..materials.tensor import KERNEL_OPTIONS
 from .lagrange import (
     G_FROM_M,
-    MAX_CELL_SUBSTEPS,
     PHI_MIN,
     bulk_viscosity,
     column_sums,
     critical_step,
+    material_update,
     mode_limit,
     strength_reserve,
-    substeps,
 )
 from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
 
@@ -387,11 +384,7 @@ def _update_rows_rz(
             L, qh = split_gradient_rz(v, i, k, h_r, h_z, r_c, split)
             D = (L[0] * dt, L[4] * dt, L[3] * dt, 0.0, 0.5 * (L[1] + L[2]) * dt, 0.0)
             W = (0.0, 0.5 * (L[1] - L[2]) * dt, 0.0)
-            nsub = substeps(D, max_sub)
-            nl = nlf[i, k] if nonlocal_ else 1.0
-            M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, nl, dbuf, wbuf)
-            if nsub == MAX_CELL_SUBSTEPS:
-                f |= SUBSTEP_LIMIT
+            M, f = material_update(tag, prm, s2, st2, c, D, W, max_sub, nlf[i, k] if nonlocal_ else 1.0, dbuf, wbuf)
             flags[i, k] = f
             modulus[i, k] = M
             rho = mass[i, k] / vs

@@ -41,12 +41,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..materials.flags import SUBSTEP_LIMIT
-from ..materials.kernels import cell_update
 from ..materials.tensor import KERNEL_OPTIONS
 from .lagrange import (
     G_FROM_M,
-    MAX_CELL_SUBSTEPS,
     PHI_MIN,
     bulk_viscosity,
     characteristic_length,
@@ -54,7 +51,7 @@ from .lagrange import (
     critical_step,
     hourglass_modes,
     increments,
-    substeps,
+    material_update,
 )
 from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
 
@@ -471,10 +468,7 @@ def _update_column(
             continue
         L, qh = velocity_gradient_cyl(v, i, j, k, h_r, r_c, dth * mt, h_z, si, sk, zi, rb, mt)
         D, W = increments(L, dt)
-        nsub = substeps(D, max_sub)
-        M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
-        if nsub == MAX_CELL_SUBSTEPS:
-            f |= SUBSTEP_LIMIT
+        M, f = material_update(tag, prm, s2, st2, c, D, W, max_sub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
         flags[i, j, k] = f
         modulus[i, j, k] = M
         rho = mc / vs

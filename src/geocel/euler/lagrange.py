@@ -437,6 +437,17 @@ def substeps(D, max_sub):
     return int(min(n, MAX_CELL_SUBSTEPS))
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def material_update(tag, prm, s2, st2, c, D, W, max_sub, nl, dbuf, wbuf):
+    """Cell c's soil-model update with the increments D, W in :func:`substeps` equal substeps (``nl``: its
+    non-local factor); returns (P-wave modulus bound, rule flags, SUBSTEP_LIMIT added at the cap)."""
+    nsub = substeps(D, max_sub)
+    M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, nl, dbuf, wbuf)
+    if nsub == MAX_CELL_SUBSTEPS:
+        f |= SUBSTEP_LIMIT
+    return M, f
+
+
 @njit(**KERNEL_OPTIONS)
 def _update_slabs(
     tag, prm, hx, hy, hz, active, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s,
@@ -469,10 +480,7 @@ def _update_slabs(
                     continue
                 L, qh = _velocity_gradient(v, i, j, k, hx[i], hy[j], hz[k])
                 D, W = increments(L, dt)
-                nsub = substeps(D, max_sub)
-                M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
-                if nsub == MAX_CELL_SUBSTEPS:
-                    f |= SUBSTEP_LIMIT
+                M, f = material_update(tag, prm, s2, st2, c, D, W, max_sub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
                 flags[i, j, k] = f
                 modulus[i, j, k] = M
                 rho = mass[i, j, k] / vs
