@@ -117,3 +117,40 @@ def test_3d_pile_frame_through_a_scenario(tmp_path):
     np.testing.assert_array_equal(a.to_numpy(), b.to_numpy())
     assert again.field.frame_offset == f.frame_offset
     assert again.field.inflow_mass == pytest.approx(f.inflow_mass, rel=1e-12)  # (summed over the levels)
+
+
+def test_a_deferred_remap_carries_a_geostatic_column_but_jolts_its_ends():
+    """The grid moves down at 0.5 m/s with the remap deferred (``remap_courant`` 0.02, a few steps) through a
+    column on uniform rows. The first remap moves a linear field, the geostatic stress: σ_zz of every full cell
+    inside the column is the geostatic stress at its laboratory depth to round-off (1e-9 of the largest), the
+    refilled bottom row too. The two cells whose faces differ in order — second order on one side, first order
+    on the other: the cell above the open bottom and the top full cell below the free surface — are shifted by
+    c(1 − c)/2 of the stress step between cells (c the remap's Courant number; within 5 %). A deferred remap
+    makes these shifts at once: a jolt that shakes the soil (docs/validation.md, "Where a deferred remap jolts
+    the soil")."""
+    settings = SolverSettings(remap_courant=0.02)
+    g = Grid.graded(2.0, 2.4, 0.8, 0.2, 0.8, 2.4, growth=1.3, max_size=0.5)
+    f = SoilField(g, SAND, 10.0, settings)
+    f.fill_below(0.0)
+    f.geostatic([(0.0, E0)], k0=0.5)
+    s = f.stress[..., 2].copy()
+    f.move_with()
+    f.frame_velocity = -0.5
+    while f.remap_count == 0:
+        f.step()
+    assert f.step_count > 3
+    i, j = np.argwhere(f.active2d)[0]
+    soil = g.zc < 0.0
+    assert np.allclose(g.hz[soil], 0.2)
+    slope, intercept = np.polyfit(g.zc[soil], s[i, j, soil], 1)  # (σ_zz = ρ g z: linear in the column)
+    np.testing.assert_allclose(s[i, j, soil], intercept + slope * g.zc[soil], atol=1e-9 * np.abs(s).max())
+    expected = intercept + slope * (g.zc + f.frame_offset)
+    full = (f.Vs >= (1.0 - 1e-9) * f.volume) & f.active3
+    top = int(np.flatnonzero(full[i, j])[-1])
+    ends = np.zeros(g.nz, dtype=bool)
+    ends[[1, top]] = True
+    err = np.abs(f.stress[..., 2] - expected[None, None, :]) / np.abs(s).max()
+    assert err[full & ~ends[None, None, :]].max() < 1e-9
+    c = -f.frame_offset / 0.2  # (the column moved as one body: every node by -frame_offset)
+    shift = 0.5 * c * (1.0 - c) * abs(slope) * 0.2 / np.abs(s).max()
+    np.testing.assert_allclose(err[..., [1, top]][full[..., [1, top]]], shift, rtol=0.05)
