@@ -47,6 +47,7 @@ from .lagrange import (
     PHI_MIN,
     bulk_viscosity,
     characteristic_length,
+    clear_void_cell,
     column_sums,
     critical_step,
     hourglass_modes,
@@ -457,13 +458,8 @@ def _update_column(
         vs, mc = group_sums(Vs, mass, i, j, k, mt)
         if vs < PHI_MIN * vol:
             for s in range(j, j + mt):
-                for d in range(6):
-                    stress[i, s, k, d] = 0.0
+                clear_void_cell(stress[i, s, k], hg[i, s, k], state[i, s, k], hoff)
                 q[i, s, k] = 0.0
-                for a in range(4):
-                    for d in range(3):
-                        hg[i, s, k, a, d] = 0.0
-                        state[i, s, k, hoff + 3 * a + d] = 0.0
                 flags[i, s, k] = 0
             continue
         L, qh = velocity_gradient_cyl(v, i, j, k, h_r, r_c, dth * mt, h_z, si, sk, zi, rb, mt)

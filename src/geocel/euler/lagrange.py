@@ -33,6 +33,19 @@ MASS_TINY = 1.0e-12
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
+def clear_void_cell(sigma, hg_cell, st, hoff):
+    """A cell the update treats as void (φ < PHI_MIN): no stress, no hourglass forces or generalised stresses
+    (``sigma`` (6), ``hg_cell`` (4, 3), ``st`` the cell's state with the hourglass block at ``hoff``); the caller
+    clears its viscous pressure and flags."""
+    for d in range(6):
+        sigma[d] = 0.0
+    for a in range(4):
+        for d in range(3):
+            hg_cell[a, d] = 0.0
+            st[hoff + 3 * a + d] = 0.0
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
 def increments(L, dt):
     """The strain and spin increments of the velocity gradient L (9-tuple, row-major) over Δt: D (11, 22, 33, 12,
     13, 23) and W (12, 13, 23), as the soil models take them."""
@@ -469,13 +482,8 @@ def _update_slabs(
                 vol = hx[i] * hy[j] * hz[k]
                 vs = Vs[i, j, k]
                 if vs < PHI_MIN * vol:
-                    for d in range(6):
-                        stress[i, j, k, d] = 0.0
+                    clear_void_cell(stress[i, j, k], hg[i, j, k], st2[c], hoff)
                     q[i, j, k] = 0.0
-                    for a in range(4):
-                        for d in range(3):
-                            hg[i, j, k, a, d] = 0.0
-                            st2[c, hoff + 3 * a + d] = 0.0
                     flags[i, j, k] = 0
                     continue
                 L, qh = _velocity_gradient(v, i, j, k, hx[i], hy[j], hz[k])
