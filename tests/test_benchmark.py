@@ -121,3 +121,81 @@ def test_the_axisymmetric_benchmark_writes_its_tables_and_leaves_the_physics_alo
 
     with pytest.raises(ScenarioMismatchError, match=r"\[domain\]\.symmetry"):
         plan_benchmark(out, "demo", pen, v, [("rigid", 1.0)])
+
+
+def _small_cylindrical_variant(
+    kind, S, resolution, penetration, velocity, velocity_factor=1.0, symmetry="quarter", layout=None
+) -> dict:
+    """The benchmark's cylindrical variant in a small container (2 m × 3 m, 3 cells per pile radius, 2 sectors):
+    the benchmark's plumbing and report are the same, the run takes seconds."""
+    from geocel.benchmark.deeks_white import variant_name
+    from geocel.benchmark.presets import preset_dict
+
+    d = preset_dict("deeks-white", resolution=resolution, penetration=penetration, velocity=velocity,
+                    symmetry=symmetry, layout=layout, pile=kind, scaling=S)  # fmt: skip
+    d["domain"].update(radius=2.0, soil_depth=3.0, fine_size=0.1, fine_radius=0.6, fine_depth=0.5, theta_cells=2)
+    d["domain"]["void_height"] = 0.3
+    d["pile"]["length"] = 2.0
+    d["name"] = variant_name(kind, S, velocity_factor)
+    d["scaling"]["velocity_factor"] = float(velocity_factor)
+    return d
+
+
+def test_the_benchmark_runs_the_quarter_model_on_the_cylindrical_layout(tmp_path, monkeypatch):
+    """``geocel benchmark deeks-white --layout cylindrical``: the variants are the cylindrical preset's (the r–z
+    model's resolution, frame, corner and sand on the 3D layout); a run (in a small container) writes a report
+    that says so, multiplies the quarter's forces by 4 and states the r–z inertia limits; q_b(z) is a direct
+    Simulation's; the layout is refused with the r–z symmetry and a directory of the tensor-product model is not
+    reused."""
+    from dask.distributed import LocalCluster
+    from typer.testing import CliRunner
+
+    import geocel.benchmark.deeks_white as dw
+    from geocel.benchmark.presets import preset_dict
+    from geocel.cli import app
+    from geocel.config.fingerprint import ScenarioMismatchError
+    from geocel.config.scenario import scenario_from_dict
+    from geocel.io.history import read_history
+    from geocel.solver.quasi_static import inertia_limits, inertia_verdict
+    from geocel.solver.simulation import Simulation
+
+    pen, v, out = 0.06, 6.0, tmp_path / "bench"
+    d = dw.variant_dict("rigid", 10.0, "demo", pen, v, layout="cylindrical")
+    assert d == preset_dict("deeks-white", resolution="demo", penetration=pen, velocity=v, layout="cylindrical",
+                            pile="rigid", scaling=10.0) | {"name": "rigid-S10"}  # fmt: skip
+    sc = scenario_from_dict(d)
+    assert (sc.domain.layout, sc.domain.symmetry, sc.domain.frame, sc.contact.rim) == (
+        "cylindrical", "quarter", "pile", "corner"
+    )  # fmt: skip
+    assert sc.domain.fine_size == 0.05 and sc.soil.material.nonlocal_length == 0.1
+    with pytest.raises(ValueError, match="--layout = 'cylindrical': a grid of the 3D quarter model"):
+        dw.plan_benchmark(out, "demo", pen, v, [("rigid", 1.0)], symmetry="axisymmetric", layout="cylindrical")
+    with pytest.raises(ValueError, match="--layout = 'round': unknown"):
+        dw.plan_benchmark(out, "demo", pen, v, [("rigid", 1.0)], layout="round")
+
+    monkeypatch.setattr(dw, "variant_dict", _small_cylindrical_variant)
+    args = ["benchmark", "deeks-white", "--layout", "cylindrical", "--variants", "rigid:1",
+            "--penetration", str(pen), "--velocity", str(v), "--out", str(out)]  # fmt: skip
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as c:
+        res = CliRunner().invoke(app, [*args, "--scheduler", c.scheduler_address])
+    assert res.exit_code == 0, res.output
+    (row,) = pd.read_csv(out / "results.csv").to_dict("records")
+    assert row["variant"] == "rigid-S1" and row["status"] == "finished"
+    assert row["inertia_check"] == inertia_verdict(row["max_inertia_ratio"], "axisymmetric")
+    report = (out / "report.md").read_text()
+    valid, _ = inertia_limits("axisymmetric")
+    assert "3D quarter model on the cylindrical layout" in report and "multiplied by 4" in report
+    assert "resolution `demo` (0.05 m cells at the pile, 6 per pile radius)" in report
+    assert f"≤ {100 * valid:.2g} % valid" in report and "one grid cell of tip depth (0.05 m)" in report
+
+    direct = Simulation(
+        scenario_from_dict(_small_cylindrical_variant("rigid", 1.0, "demo", pen, v, layout="cylindrical")),
+        out=tmp_path / "direct", progress=False, write_fields=False,
+    ).run()  # fmt: skip
+    bench = read_history(out / "rigid-S1" / "history.csv")
+    ref = read_history(tmp_path / "direct" / "history.csv")
+    assert direct["steps"] == row["steps"] and len(bench) == len(ref) >= 4
+    np.testing.assert_array_equal(bench["qb"].to_numpy(), ref["qb"].to_numpy())
+    assert np.nanmax(ref["qb"]) > 0.0
+    with pytest.raises(ScenarioMismatchError, match=r"\[domain\]\.layout"):
+        dw.plan_benchmark(out, "demo", pen, v, [("rigid", 1.0)])

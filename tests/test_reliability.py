@@ -480,7 +480,7 @@ VARIANT = ("rigid", 100.0, "demo", 0.06, 0.5)
 
 
 def _tiny_variant_dict(
-    kind, S, resolution, penetration, velocity, velocity_factor=1.0, symmetry="quarter"
+    kind, S, resolution, penetration, velocity, velocity_factor=1.0, symmetry="quarter", layout=None
 ) -> dict:
     """The benchmark's variant scenario on the tiny test domain (half the preset's cell size at the pile):
     the reuse logic is the same, the run takes seconds instead of a minute."""

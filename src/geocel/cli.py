@@ -377,7 +377,9 @@ def benchmark(
     name: Annotated[str, typer.Argument(help="benchmark (deeks-white)")],
     resolution: Annotated[
         str,
-        typer.Option(help="demo | coarse | paper (r–z: 6, 12, 24 cells per pile radius)"),
+        typer.Option(
+            help="demo | coarse | paper (r–z and the cylindrical layout: 6, 12, 24 cells per pile radius)"
+        ),
     ] = "demo",
     symmetry: Annotated[
         str,
@@ -385,6 +387,13 @@ def benchmark(
             help="quarter (the 3D quarter model) | axisymmetric (the r–z model, its own inertia limits)"
         ),
     ] = "quarter",
+    layout: Annotated[
+        str | None,
+        typer.Option(
+            help="3D grid of the quarter model: tensor (the preset's) | nested | cylindrical (experimental: the "
+            "r–z model's grids, frame, corner and sand round the pile's axis; r–z's resolutions and inertia limits)"
+        ),
+    ] = None,
     penetration: Annotated[float, typer.Option(help="penetration, m")] = 3.0,
     velocity: Annotated[float, typer.Option(help="jacking velocity, m/s")] = 0.02,
     scheduler: Annotated[
@@ -418,7 +427,7 @@ def benchmark(
     ] = None,
 ) -> None:
     """The 9 variants (conventional/coupled/rigid × S = 1, 10, 100) on dask.distributed, in the 3D quarter model
-    or (--symmetry axisymmetric) the r–z model: figure, tables and report in OUT. Finished variants of the same scenario are reused, interrupted ones resumed from their
+    (--layout cylindrical: on the cylindrical layout) or (--symmetry axisymmetric) the r–z model: figure, tables and report in OUT. Finished variants of the same scenario are reused, interrupted ones resumed from their
     checkpoints; every option is checked before the cluster starts."""
     from .benchmark.deeks_white import parse_variants, plan_benchmark, run_benchmark
 
@@ -433,7 +442,7 @@ def benchmark(
             )
         sel = parse_variants(variants) if variants is not None else None
         plan = plan_benchmark(
-            out, resolution, penetration, velocity, sel, reference, time_scaling, rerun, symmetry
+            out, resolution, penetration, velocity, sel, reference, time_scaling, rerun, symmetry, layout
         )
     for variant, state in plan.states.items():
         if state in ("finished", "resume", "replace"):

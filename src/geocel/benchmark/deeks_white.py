@@ -1,7 +1,9 @@
 """The Deeks & White (2006) centrifuge benchmark: the 9 variants (conventional / coupled / rigid × S = 1, 10,
 100) as independent tasks on dask.distributed, then one figure, a table (Markdown + CSV) and a report. The
-model is the 3D quarter model (``symmetry="quarter"``) or the axisymmetric r–z model (``"axisymmetric"``: the
-grids of :data:`~geocel.benchmark.presets.AXISYMMETRIC_RESOLUTIONS`, the r–z inertia limits).
+model is the 3D quarter model (``symmetry="quarter"``), the axisymmetric r–z model (``"axisymmetric"``: the
+grids of :data:`~geocel.benchmark.presets.AXISYMMETRIC_RESOLUTIONS`, the r–z inertia limits), or the 3D quarter
+model on the cylindrical layout (``layout="cylindrical"``, experimental: the r–z model's grids, frame, corner and
+sand turned round the pile's axis, the r–z inertia limits).
 
 Each variant is a normal run directory under ``out/<variant>``. Before any computing (and before the dask
 cluster starts) every option is checked and every existing variant directory is compared with the requested
@@ -40,6 +42,8 @@ SCALINGS = (1, 10, 100)
 S_RANGE = (1.0, 1.0e4)
 #: the models the benchmark runs: the 3D quarter model (the paper's) and the axisymmetric r–z model
 BENCHMARK_SYMMETRIES = ("quarter", "axisymmetric")
+#: the 3D grid layouts the benchmark's quarter model runs on (None: the preset's tensor product)
+BENCHMARK_LAYOUTS = ("tensor", "nested", "cylindrical")
 _HINT = "use another --out, or --rerun to set it aside and run the variant again"
 
 
@@ -101,9 +105,15 @@ def variant_name(kind: str, S: float, velocity_factor: float = 1.0) -> str:
     return name if velocity_factor == 1.0 else f"{name}-v{velocity_factor:g}"
 
 
-def resolutions_of(symmetry: str = "quarter") -> dict[str, dict]:
-    """The benchmark's resolutions (name → ``[domain]`` keys) of a model ``symmetry``."""
-    return AXISYMMETRIC_RESOLUTIONS if symmetry == "axisymmetric" else RESOLUTIONS
+def rz_model(symmetry: str = "quarter", layout: str | None = None) -> bool:
+    """Whether the benchmark runs the r–z model's set-up (its grids, the pile's frame, the split corner, the
+    non-local sand and the r–z inertia limits): in r–z, or in 3D on the cylindrical layout."""
+    return symmetry == "axisymmetric" or layout == "cylindrical"
+
+
+def resolutions_of(symmetry: str = "quarter", layout: str | None = None) -> dict[str, dict]:
+    """The benchmark's resolutions (name → ``[domain]`` keys) of a model ``symmetry`` on a ``layout``."""
+    return AXISYMMETRIC_RESOLUTIONS if rz_model(symmetry, layout) else RESOLUTIONS
 
 
 def variant_dict(
@@ -114,12 +124,14 @@ def variant_dict(
     velocity: float,
     velocity_factor: float = 1.0,
     symmetry: str = "quarter",
+    layout: str | None = None,
 ) -> dict:
-    """The scenario (as a dict) of one variant: the deeks-white preset (of ``symmetry``) with the pile kind and
-    scaling."""
+    """The scenario (as a dict) of one variant: the deeks-white preset (of ``symmetry`` and ``layout``) with the
+    pile kind and scaling."""
     d = preset_dict(
-        "deeks-white", resolution=resolution, penetration=penetration, velocity=velocity, symmetry=symmetry
-    )
+        "deeks-white", resolution=resolution, penetration=penetration, velocity=velocity, symmetry=symmetry,
+        layout=layout,
+    )  # fmt: skip
     d["name"] = variant_name(kind, S, velocity_factor)
     d["pile"]["type"] = kind
     d["scaling"]["mass_gravity"] = float(S)
@@ -145,6 +157,7 @@ def run_variant(
     threads: int | None = None,
     rerun: bool = False,
     symmetry: str = "quarter",
+    layout: str | None = None,
 ) -> dict:
     """Run, resume or reuse one variant (:func:`geocel.batch.run_in_directory`); returns its summary (worker
     side), with ``skipped`` true when a finished run of the same scenario was reused."""
@@ -152,7 +165,9 @@ def run_variant(
 
     name = variant_name(kind, S, velocity_factor)
     sc = scenario_from_dict(
-        variant_dict(kind, S, resolution, penetration, velocity, velocity_factor, symmetry=symmetry)
+        variant_dict(
+            kind, S, resolution, penetration, velocity, velocity_factor, symmetry=symmetry, layout=layout
+        )
     )
     return {**run_in_directory(Path(out_root) / name, sc, threads, rerun), "variant": name}
 
@@ -171,6 +186,7 @@ class BenchmarkPlan:
     reference_name: str | None = None
     rerun: bool = False
     symmetry: str = "quarter"
+    layout: str | None = None
 
 
 def plan_benchmark(
@@ -183,6 +199,7 @@ def plan_benchmark(
     time_scaling: bool = False,
     rerun: bool = False,
     symmetry: str = "quarter",
+    layout: str | None = None,
 ) -> BenchmarkPlan:
     """Check every option and every existing variant directory before anything is computed; raises
     ``ValueError`` with one line naming the option, the value and what is allowed."""
@@ -191,7 +208,14 @@ def plan_benchmark(
             f"--symmetry = {symmetry!r}: the benchmark runs the 3D quarter model or the r–z model (allowed: "
             f"{', '.join(BENCHMARK_SYMMETRIES)})"
         )
-    resolutions = resolutions_of(symmetry)
+    if layout is not None:
+        if layout not in BENCHMARK_LAYOUTS:
+            raise ValueError(f"--layout = {layout!r}: unknown (allowed: {', '.join(BENCHMARK_LAYOUTS)})")
+        if symmetry != "quarter":
+            raise ValueError(
+                f"--layout = {layout!r}: a grid of the 3D quarter model, not of --symmetry {symmetry}"
+            )
+    resolutions = resolutions_of(symmetry, layout)
     if resolution not in resolutions:
         raise ValueError(f"--resolution = {resolution!r}: unknown (allowed: {', '.join(resolutions)})")
     for option, value in (("--penetration", penetration), ("--velocity", velocity)):
@@ -219,12 +243,13 @@ def plan_benchmark(
     for k, S, vf in todo:
         name = variant_name(k, S, vf)
         sc = scenario_from_options(
-            variant_dict(k, S, resolution, penetration, velocity, vf, symmetry=symmetry), f"variant {name}: "
+            variant_dict(k, S, resolution, penetration, velocity, vf, symmetry=symmetry, layout=layout),
+            f"variant {name}: ",
         )
         states[name] = variant_state(out / name, sc, rerun)
     return BenchmarkPlan(
         out, resolution, penetration, velocity, todo, states, ref,
-        f"measured ({Path(reference).name})" if reference is not None else None, rerun, symmetry,
+        f"measured ({Path(reference).name})" if reference is not None else None, rerun, symmetry, layout,
     )  # fmt: skip
 
 
@@ -256,13 +281,14 @@ def run_benchmark(
     rerun: bool = False,
     plan: BenchmarkPlan | None = None,
     symmetry: str = "quarter",
+    layout: str | None = None,
 ) -> dict:
     """Run the variants on dask.distributed and write ``results.csv``, ``results.md``, ``curves.png`` and
     ``report.md`` into ``out``. Returns {"table": DataFrame, "failed": {variant: error}}. All options are
     checked first (:func:`plan_benchmark`, or the ``plan`` made before)."""
     if plan is None:
         plan = plan_benchmark(
-            out, resolution, penetration, velocity, variants, reference, time_scaling, rerun, symmetry
+            out, resolution, penetration, velocity, variants, reference, time_scaling, rerun, symmetry, layout
         )
     out, resolution, penetration, velocity = plan.out, plan.resolution, plan.penetration, plan.velocity
     out.mkdir(parents=True, exist_ok=True)
@@ -283,19 +309,18 @@ def run_benchmark(
             f"dask: {client.scheduler.address if hasattr(client, 'scheduler') else scheduler}, {len(todo)} variants"
         )
         t0 = time.perf_counter()
+        case = (str(out), resolution, penetration, velocity)
+        model = (plan.rerun, plan.symmetry, plan.layout)
         tasks = {
-            variant_name(k, S, vf): (
-                run_variant,
-                (k, S, str(out), resolution, penetration, velocity, vf, threads, plan.rerun, plan.symmetry),
-            )
-            for k, S, vf in todo
+            variant_name(k, S, vf): (run_variant, (k, S, *case, vf, threads, *model)) for k, S, vf in todo
         }
         priorities = {variant_name(k, S, vf): _expected_cost(k, S, vf) for k, S, vf in todo}
         summaries, failed = run_tasks(client, tasks, priorities, report)
     wall = time.perf_counter() - t0
     return write_results(out, [variant_name(k, S, vf) for k, S, vf in todo], summaries, failed,
                          plan.reference if plan.reference is not None else None, wall, resolution, penetration,
-                         velocity, reference_name=plan.reference_name, symmetry=plan.symmetry)  # fmt: skip
+                         velocity, reference_name=plan.reference_name, symmetry=plan.symmetry,
+                         layout=plan.layout)  # fmt: skip
 
 
 def write_results(
@@ -310,14 +335,16 @@ def write_results(
     velocity,
     reference_name=None,
     symmetry: str = "quarter",
+    layout: str | None = None,
 ) -> dict:
     """Tables, figure and report from the run directories of the variants (``reference``: a measured curve,
-    as a CSV path or the table of :func:`read_reference`; ``symmetry``: the model's, for the cell width of the
-    depth average, the inertia limits and the report's text). A variant whose history cannot be read is left
-    out of the curves and the errors, and named in the report."""
+    as a CSV path or the table of :func:`read_reference`; ``symmetry`` and ``layout``: the model's, for the cell
+    width of the depth average, the inertia limits and the report's text). A variant whose history cannot be
+    read is left out of the curves and the errors, and named in the report."""
     out = Path(out)
     rz = symmetry == "axisymmetric"
-    resolutions = resolutions_of(symmetry)
+    cylindrical = layout == "cylindrical"
+    resolutions = resolutions_of(symmetry, layout)
     width = resolutions[resolution]["fine_size"] if resolution in resolutions else 0.0
     hist = {}
     unreadable: dict[str, str] = {}
@@ -396,24 +423,36 @@ def write_results(
     table.to_csv(out / "results.csv", index=False)
     (out / "results.md").write_text(table.to_markdown(index=False, floatfmt=".4g"))
     starts = {n: summaries[n].get("energy_check_from_penetration") for n in hist if n in summaries}
-    model = "axisymmetric (r–z), " if rz else ""
+    model = "axisymmetric (r–z), " if rz else ("3D cylindrical layout, " if cylindrical else "")
     fig = plot_curves(hist, out / "curves.png", reference=ref if reference is not None else None,
                       title=f"Deeks & White (2006), {model}{resolution} resolution, penetration {penetration:g} m, "
                       f"v = {velocity:g} m/s", check_start=starts)  # fmt: skip
-    if rz:
+    if rz or cylindrical:
         radius = 0.5 * preset_dict("deeks-white")["pile"]["diameter"]
         cells = f" ({width:g} m cells at the pile, {radius / width:.0f} per pile radius)" if width else ""
-        valid, caution = inertia_limits(symmetry)
-        heading = "# Deeks & White (2006) pile-jacking benchmark, axisymmetric (r–z) model"
-        setup = f"Symmetry `axisymmetric` (the r–z plane), resolution `{resolution}`{cells}"
-        forces = (
-            "q_b and q_s are those of the whole pile (the r–z forces per radian × 2π, no symmetry factor); the "
-            f"inertia check uses the r–z limits (ρ_S v²/q_b ≤ {100 * valid:.2g} % valid, ≤ {100 * caution:.2g} % "
+        valid, caution = inertia_limits("axisymmetric")
+        limits = (
+            f"the inertia check uses the r–z limits (ρ_S v²/q_b ≤ {100 * valid:.2g} % valid, ≤ {100 * caution:.2g} % "
             "caution, calibrated against the quasi-static plateau: docs/validation.md). "
         )
+        if rz:
+            heading = "# Deeks & White (2006) pile-jacking benchmark, axisymmetric (r–z) model"
+            setup = f"Symmetry `axisymmetric` (the r–z plane), resolution `{resolution}`{cells}"
+            forces = "q_b and q_s are those of the whole pile (the r–z forces per radian × 2π, no symmetry factor); "
+        else:
+            heading = (
+                "# Deeks & White (2006) pile-jacking benchmark, 3D quarter model on the cylindrical layout"
+            )
+            setup = (
+                "The 3D quarter model on the cylindrical layout (experimental: the r–z model's grid turned round the "
+                "pile's axis, in the pile's frame with the split corner and the non-local sand, docs/numerics.md), "
+                f"resolution `{resolution}`{cells}"
+            )
+            forces = "Forces of the quarter model are multiplied by 4 (symmetry); "
+        forces += limits
     else:
         heading = "# Deeks & White (2006) pile-jacking benchmark"
-        setup = f"Resolution `{resolution}`"
+        setup = f"Resolution `{resolution}`" + (f" on the `{layout}` layout" if layout else "")
         forces = "Forces of the quarter model are multiplied by 4 (symmetry). "
     lines = [
         heading,
