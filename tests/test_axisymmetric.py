@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numba import get_num_threads
 
-from geocel.config.materials import Elastic, Hypoplastic, MohrCoulomb
+from geocel.config.materials import Elastic, Hypoplastic, MohrCoulomb, Tresca
 from geocel.euler.axisym import (
     FORCE_FACTORS_RZ,
     NO_SPLIT,
@@ -292,6 +292,40 @@ def test_thick_walled_cylinder_under_internal_pressure_matches_lame():
     np.testing.assert_allclose(st[:, 1], A * (1 + b * b / rc**2), rtol=0.02)
     np.testing.assert_allclose(st[:, 0], A * (1 - b * b / rc**2), atol=0.02 * p)
     np.testing.assert_allclose(st[:, 2], nu * (st[:, 0] + st[:, 1]), rtol=1e-6)  # plane strain
+
+
+def test_thick_walled_cylinder_yielding_under_internal_pressure_matches_hill():
+    """The cylinder of the Lamé test in Tresca soil (c_u = k), the pressure raised to the value at which the
+    plastic zone reaches c = 1.5 a: p = k (1 − c²/b²) + 2k ln(c/a) (Hill 1950, plane strain, σ_zz the
+    intermediate stress). Quasi-static: σ_rr = −k (1 − c²/b²) − 2k ln(c/r), σ_θθ = σ_rr + 2k for r ≤ c, and
+    Lamé with σ_θθ − σ_rr = 2k c²/r² outside, within 1 % of p (measured 0.05 %)."""
+    E, nu, k = 20e6, 0.45, 50e3
+    a, b, h, c = 1.0, 2.0, 0.05, 1.5
+    p = k * (1 - c * c / (b * b)) + 2 * k * np.log(c / a)
+    g = AxisymmetricGrid(h * np.arange(int(round(b / h)) + 1), np.array([0.0, h, 2 * h]))
+    f = AxisymmetricField(g, Tresca(youngs_modulus=E, poisson_ratio=nu, undrained_strength=k), damping=120.0,
+                          settings=SolverSettings(gravity=0.0, remap_courant=np.inf))  # fmt: skip
+    f.Vs[g.rc > a] = f.volume[g.rc > a]
+    f.geostatic([(0.0, 0.65)], k0=1.0)  # (weightless: the masses, e; no stress)
+    f.fix[...] = 0
+    f.fix[0, :, 0] = 1
+    f.fix[:, 0, 1] = f.fix[:, -1, 1] = 1
+    ia = int(round(a / h))
+    share = np.r_[0.5 * h, np.full(g.nz - 1, h), 0.5 * h]
+    while f.time < 0.6:
+        f.external_force[ia, :, 0] = min(f.time / 0.2, 1.0) * p * a * share  # per radian: p r h_z
+        f.step()
+    assert f.energy["kinetic"] < 1e-8 * f.energy["internal"]  # at rest
+    r = g.rc[g.rc > a]
+    st = f.stress[g.rc > a, 0]
+    plastic = r < c
+    s_rr = np.where(plastic, -k * (1 - c * c / (b * b)) - 2 * k * np.log(c / r), -k * c * c / (b * b) * (b * b / r**2 - 1))  # fmt: skip
+    s_tt = np.where(plastic, s_rr + 2 * k, k * c * c / (b * b) * (b * b / r**2 + 1))
+    np.testing.assert_allclose(st[:, 0], s_rr, atol=0.01 * p)
+    np.testing.assert_allclose(st[:, 1], s_tt, atol=0.01 * p)
+    assert np.all((st[:, 0] < st[:, 2]) & (st[:, 2] < st[:, 1]))  # σ_zz intermediate: Hill's assumption holds
+    np.testing.assert_allclose((st[:, 1] - st[:, 0])[plastic], 2 * k, rtol=1e-9)  # on the yield surface
+    assert np.all(st[~plastic, 1] - st[~plastic, 0] < 2 * k)  # elastic outside c
 
 
 def test_energy_balance_of_an_elastic_column_released_under_gravity():
