@@ -259,3 +259,19 @@ def test_cli_preset_and_run(tmp_path):
     res = CliRunner().invoke(app, args)
     assert res.exit_code == 0, res.output
     assert "rigid pile" in res.output and (tmp_path / "run" / "pile_curves.png").is_file()
+
+
+def test_the_reported_speed_leaves_out_the_voids_dust():
+    """``max_velocity`` in the history: the nodes below 10⁻³ of the largest nodal mass (of all the grids, the
+    levels of nested columns sharing one scale) are left out, whatever their speed; the others count."""
+    from geocel.solver.backend import DUST_SHARE, soil_speed
+
+    v = np.zeros((3, 4, 2))
+    m = np.full((3, 4), 10.0)
+    m[0, 0] = 0.5 * DUST_SHARE * 10.0  # a nearly empty node at the free surface
+    v[0, 0] = (7.0, -9.0)
+    v[2, 3, 1] = -0.05
+    assert soil_speed([(v, m)]) == 0.05
+    coarse_v, coarse_m = np.zeros((2, 2, 2)), np.full((2, 2), 1e5)  # 10⁴ × heavier: the fine nodes are dust now
+    assert soil_speed([(v, m), (coarse_v, coarse_m)]) == 0.0
+    assert soil_speed([(v, np.zeros_like(m))]) == 0.0  # no soil

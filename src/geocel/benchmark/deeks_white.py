@@ -359,7 +359,7 @@ def write_results(
         except (ValueError, KeyError, OSError) as err:
             unreadable[n] = str(err)
     ref = None
-    ref_name = "nothing"
+    ref_name = "nothing (no --reference and no conventional S = 1 run: the MPE columns are left out)"
     if reference is not None:
         ref = reference if isinstance(reference, pd.DataFrame) else read_reference(reference)
         ref_name = reference_name or (
