@@ -597,3 +597,21 @@ def test_a_full_disk_stops_with_one_line_and_the_previous_checkpoint_restarts(
     s = _sim(root).run(restart=True)
     assert s["steps"] == reference[1]["steps"]
     pd.testing.assert_frame_equal(_history(root), _history(reference[0]), rtol=1e-12, atol=0.0)
+
+
+def test_a_zero_stable_time_step_stops_the_field_instead_of_freezing_its_clock():
+    """Soil volume without mass (a field driven by hand whose masses were never set) has c = √(M/ρ) = ∞: the
+    step says so at once, instead of stepping forever with Δt = 0 (which a `while time < T` loop never ends)."""
+    from geocel.config.materials import Elastic
+    from geocel.grid.axisym import AxisymmetricGrid
+    from geocel.solver.axisym_field import AxisymmetricField
+    from geocel.solver.field import InstabilityError, SolverSettings
+
+    h = 0.1
+    g = AxisymmetricGrid(h * np.arange(6), np.array([0.0, h, 2 * h]))
+    f = AxisymmetricField(g, Elastic(), settings=SolverSettings(gravity=0.0, remap_courant=np.inf))
+    f.Vs[...] = f.volume  # soil volume, no mass
+    with np.errstate(divide="ignore"), pytest.raises(InstabilityError, match="stable time step is 0 s"):
+        for _ in range(3):
+            f.step()
+    assert f.step_count == 1

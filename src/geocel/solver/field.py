@@ -209,6 +209,13 @@ class FieldBalances:
         self.dt_critical = dtc
         self.governing_cell = arg
         if np.isfinite(dtc):
+            if not dtc > 0.0:  # (else Δt = 0: the clock would stand still and a run never end)
+                raise InstabilityError(
+                    f"step {self.step_count}: the stable time step is {dtc:.3g} s (cell {arg}): a cell holds soil "
+                    "volume without mass, or a stiffness without bound",
+                    {"step": self.step_count, "time": self.time, "dt": dt, "quantity": "stable_time_step",
+                     "index": int(arg)},
+                )  # fmt: skip
             self.dt = min(st.safety_factor * dtc, st.dt_growth * dt)
 
     def _soil_cells(self) -> np.ndarray:
