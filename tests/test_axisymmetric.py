@@ -294,30 +294,40 @@ def test_thick_walled_cylinder_under_internal_pressure_matches_lame():
     np.testing.assert_allclose(st[:, 2], nu * (st[:, 0] + st[:, 1]), rtol=1e-6)  # plane strain
 
 
-def test_thick_walled_cylinder_yielding_under_internal_pressure_matches_hill():
-    """The cylinder of the Lamé test in Tresca soil (c_u = k), the pressure raised to the value at which the
-    plastic zone reaches c = 1.5 a: p = k (1 − c²/b²) + 2k ln(c/a) (Hill 1950, plane strain, σ_zz the
-    intermediate stress). Quasi-static: σ_rr = −k (1 − c²/b²) − 2k ln(c/r), σ_θθ = σ_rr + 2k for r ≤ c, and
-    Lamé with σ_θθ − σ_rr = 2k c²/r² outside, within 1 % of p (measured 0.05 %)."""
-    E, nu, k = 20e6, 0.45, 50e3
-    a, b, h, c = 1.0, 2.0, 0.05, 1.5
-    p = k * (1 - c * c / (b * b)) + 2 * k * np.log(c / a)
+def _pressurised_cylinder(material, p_inner, p_outer=0.0, a=1.0, b=2.0, h=0.05):
+    """The thick cylinder a ≤ r ≤ b of the Lamé test in plane strain (v_z = 0 at the bottom and top), small
+    strain (remap off), from the isotropic stress −``p_outer``: the outer pressure held, the inner one raised
+    from ``p_outer`` to ``p_inner`` over 0.2 s and held, quasi-static by dynamic relaxation. Returns the cell
+    centres' radii and stresses."""
     g = AxisymmetricGrid(h * np.arange(int(round(b / h)) + 1), np.array([0.0, h, 2 * h]))
-    f = AxisymmetricField(g, Tresca(youngs_modulus=E, poisson_ratio=nu, undrained_strength=k), damping=120.0,
-                          settings=SolverSettings(gravity=0.0, remap_courant=np.inf))  # fmt: skip
-    f.Vs[g.rc > a] = f.volume[g.rc > a]
+    settings = SolverSettings(gravity=0.0, remap_courant=np.inf)
+    f = AxisymmetricField(g, material, damping=120.0, settings=settings)
+    soil = g.rc > a
+    f.Vs[soil] = f.volume[soil]
     f.geostatic([(0.0, 0.65)], k0=1.0)  # (weightless: the masses, e; no stress)
+    f.stress[soil, :, :3] = -p_outer
     f.fix[...] = 0
     f.fix[0, :, 0] = 1
     f.fix[:, 0, 1] = f.fix[:, -1, 1] = 1
     ia = int(round(a / h))
     share = np.r_[0.5 * h, np.full(g.nz - 1, h), 0.5 * h]
     while f.time < 0.6:
-        f.external_force[ia, :, 0] = min(f.time / 0.2, 1.0) * p * a * share  # per radian: p r h_z
+        p = p_outer + min(f.time / 0.2, 1.0) * (p_inner - p_outer)
+        f.external_force[ia, :, 0] = p * a * share  # per radian: p r h_z
+        f.external_force[-1, :, 0] = -p_outer * b * share
         f.step()
     assert f.energy["kinetic"] < 1e-8 * f.energy["internal"]  # at rest
-    r = g.rc[g.rc > a]
-    st = f.stress[g.rc > a, 0]
+    return g.rc[soil], f.stress[soil, 0]
+
+
+def test_thick_walled_cylinder_yielding_under_internal_pressure_matches_hill():
+    """The cylinder in Tresca soil (c_u = k), the pressure raised to the value at which the plastic zone reaches
+    c = 1.5 a: p = k (1 − c²/b²) + 2k ln(c/a) (Hill 1950, plane strain, σ_zz the intermediate stress).
+    σ_rr = −k (1 − c²/b²) − 2k ln(c/r), σ_θθ = σ_rr + 2k for r ≤ c, and Lamé with σ_θθ − σ_rr = 2k c²/r²
+    outside, within 1 % of p (measured 0.05 %)."""
+    k, a, b, c = 50e3, 1.0, 2.0, 1.5
+    p = k * (1 - c * c / (b * b)) + 2 * k * np.log(c / a)
+    r, st = _pressurised_cylinder(Tresca(youngs_modulus=20e6, poisson_ratio=0.45, undrained_strength=k), p)
     plastic = r < c
     s_rr = np.where(plastic, -k * (1 - c * c / (b * b)) - 2 * k * np.log(c / r), -k * c * c / (b * b) * (b * b / r**2 - 1))  # fmt: skip
     s_tt = np.where(plastic, s_rr + 2 * k, k * c * c / (b * b) * (b * b / r**2 + 1))
@@ -326,6 +336,31 @@ def test_thick_walled_cylinder_yielding_under_internal_pressure_matches_hill():
     assert np.all((st[:, 0] < st[:, 2]) & (st[:, 2] < st[:, 1]))  # σ_zz intermediate: Hill's assumption holds
     np.testing.assert_allclose((st[:, 1] - st[:, 0])[plastic], 2 * k, rtol=1e-9)  # on the yield surface
     assert np.all(st[~plastic, 1] - st[~plastic, 0] < 2 * k)  # elastic outside c
+
+
+@pytest.mark.parametrize("dilatancy", [0.0, 15.0])
+def test_frictional_thick_cylinder_matches_the_closed_form_whatever_the_dilatancy(dilatancy):
+    """The cylinder in cohesionless Mohr–Coulomb soil (φ = 30°, N = (1 + sin φ)/(1 − sin φ) = 3) from the
+    isotropic stress −p0, the outer pressure p0 held and the inner one raised until the plastic zone reaches
+    c = 1.5 a. Plastic zone: σ_rr = N σ_θθ and equilibrium give σ_rr = σ_c (c/r)^((N−1)/N); elastic zone:
+    Lamé, σ = P ± Q/r², with σ_rr(b) = −p0 and yield at c. With σ_zz intermediate the stresses are statically
+    determinate, so the dilatancy angle does not enter. Within 1 % of p (measured 0.007 % for ψ = 0 and 15°)."""
+    p0, a, b, c = 100e3, 1.0, 2.0, 1.5
+    N = (1 + np.sin(np.radians(30.0))) / (1 - np.sin(np.radians(30.0)))
+    P = -p0 / (1 + (N - 1) * c * c / ((N + 1) * b * b))
+    Q = P * (N - 1) * c * c / (N + 1)
+    s_c = P * 2 * N / (N + 1)  # σ_rr at c
+    p = -s_c * (c / a) ** ((N - 1) / N)
+    mc = MohrCoulomb(youngs_modulus=20e6, poisson_ratio=0.3, friction_angle=30.0, dilatancy_angle=dilatancy)
+    r, st = _pressurised_cylinder(mc, p, p_outer=p0)
+    plastic = r < c
+    s_rr = np.where(plastic, s_c * (c / r) ** ((N - 1) / N), P + Q / r**2)
+    s_tt = np.where(plastic, s_rr / N, P - Q / r**2)
+    np.testing.assert_allclose(st[:, 0], s_rr, atol=0.01 * p)
+    np.testing.assert_allclose(st[:, 1], s_tt, atol=0.01 * p)
+    assert np.all((st[:, 0] < st[:, 2]) & (st[:, 2] < st[:, 1]))  # σ_zz intermediate
+    np.testing.assert_allclose((st[:, 0] / st[:, 1])[plastic], N, rtol=1e-9)  # on the yield surface
+    assert np.all(st[~plastic, 0] / st[~plastic, 1] < N)  # elastic outside c
 
 
 def test_energy_balance_of_an_elastic_column_released_under_gravity():
