@@ -427,7 +427,7 @@ def write_results(
     fig = plot_curves(hist, out / "curves.png", reference=ref if reference is not None else None,
                       title=f"Deeks & White (2006), {model}{resolution} resolution, penetration {penetration:g} m, "
                       f"v = {velocity:g} m/s", check_start=starts)  # fmt: skip
-    if rz or cylindrical:
+    if rz_model(symmetry, layout):
         radius = 0.5 * preset_dict("deeks-white")["pile"]["diameter"]
         cells = f" ({width:g} m cells at the pile, {radius / width:.0f} per pile radius)" if width else ""
         valid, caution = inertia_limits("axisymmetric")
