@@ -262,16 +262,19 @@ def test_cli_preset_and_run(tmp_path):
 
 
 def test_the_reported_speed_leaves_out_the_voids_dust():
-    """``max_velocity`` in the history: the nodes below 10⁻³ of the largest nodal mass (of all the grids, the
-    levels of nested columns sharing one scale) are left out, whatever their speed; the others count."""
-    from geocel.solver.backend import DUST_SHARE, soil_speed
+    """``max_velocity`` in the history: the nodes whose cells are all less than 10⁻³ full are left out, whatever
+    their speed; a node next to soil counts, however small its cells (graded grids: the cells' fractions, not
+    the nodal masses, decide)."""
+    from geocel.solver.backend import DUST_FRACTION, node_fraction, soil_speed
 
+    phi = np.array([[1.0, 0.5, 0.0], [1.0, 0.2 * DUST_FRACTION, 0.0]])
+    np.testing.assert_array_equal(
+        node_fraction(phi),
+        [[1.0, 1.0, 0.5, 0.0], [1.0, 1.0, 0.5, 0.0], [1.0, 1.0, 0.2 * DUST_FRACTION, 0.0]],
+    )
+    volume = np.array([[1e-6, 1e-6, 1e-6], [1e3, 1e3, 1e3]])  # a fine row next to a coarse one
     v = np.zeros((3, 4, 2))
-    m = np.full((3, 4), 10.0)
-    m[0, 0] = 0.5 * DUST_SHARE * 10.0  # a nearly empty node at the free surface
-    v[0, 0] = (7.0, -9.0)
-    v[2, 3, 1] = -0.05
-    assert soil_speed([(v, m)]) == 0.05
-    coarse_v, coarse_m = np.zeros((2, 2, 2)), np.full((2, 2), 1e5)  # 10⁴ × heavier: the fine nodes are dust now
-    assert soil_speed([(v, m), (coarse_v, coarse_m)]) == 0.0
-    assert soil_speed([(v, np.zeros_like(m))]) == 0.0  # no soil
+    v[2, 2] = (7.0, -9.0)  # a node by the nearly empty cell only: dust
+    v[0, 1, 1] = -0.05  # a node of the fine row, next to soil
+    assert soil_speed([(v, phi * volume, volume)]) == 0.05
+    assert soil_speed([(v, 0.0 * volume, volume)]) == 0.0  # no soil

@@ -18,6 +18,7 @@ modelled part in 3D, factor 1; the whole ring in r–z, whose field holds them p
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -70,18 +71,30 @@ def rz_grid(scenario: Scenario):
     )
 
 
-#: nodes below this share of the largest nodal mass are the void's dust: a nearly empty node at the free surface
+#: nodes whose cells are all less full than this are the void's dust: a nearly empty node at the free surface
 #: moves freely (at 0.005 m/s jacking, up to several m/s) and carries no soil worth reporting
-DUST_SHARE = 1e-3
+DUST_FRACTION = 1e-3
 
 
-def soil_speed(grids: list[tuple[np.ndarray, np.ndarray]], share: float = DUST_SHARE) -> float:
-    """Largest velocity component (m/s) over the nodes that carry at least ``share`` of the largest nodal mass
-    of all ``grids`` ((velocities, nodal masses) per grid: the levels of nested columns share one scale)."""
-    m_max = max(float(m.max()) for _, m in grids)
-    if not m_max > 0.0:
-        return 0.0
-    return max(float(np.abs(v[m >= share * m_max]).max(initial=0.0)) for v, m in grids)
+def node_fraction(phi: np.ndarray) -> np.ndarray:
+    """The largest soil fraction of the cells round each node: cell array (n₁, …, n_d) → node array (n₁ + 1, …).
+    Dimensionless, so that graded cells (whose nodal masses differ by orders of magnitude) compare alike."""
+    out = np.zeros(tuple(n + 1 for n in phi.shape))
+    for shift in itertools.product((0, 1), repeat=phi.ndim):
+        view = out[tuple(slice(o, o + n) for o, n in zip(shift, phi.shape, strict=True))]
+        np.maximum(view, phi, out=view)
+    return out
+
+
+def soil_speed(grids: list[tuple[np.ndarray, np.ndarray, np.ndarray]], fraction: float = DUST_FRACTION) -> float:
+    """Largest velocity component (m/s) over the nodes next to a cell at least ``fraction`` full, over ``grids``
+    ((node velocities, cells' soil volumes, cell volumes) per grid, e.g. the levels of nested columns)."""
+    speed = 0.0
+    for v, Vs, volume in grids:
+        phi = np.divide(Vs, volume, out=np.zeros(Vs.shape), where=volume > 0.0)
+        soil = node_fraction(phi) >= fraction
+        speed = max(speed, float(np.abs(v[soil]).max(initial=0.0)))
+    return speed
 
 
 class Backend:
@@ -116,7 +129,7 @@ class Backend:
 
     def max_speed(self) -> float:
         """Largest nodal velocity component of the soil, m/s (:func:`soil_speed`)."""
-        return soil_speed([(self.field.v, self.field.nmass)])
+        return soil_speed([(self.field.v, self.field.Vs, self.field.volume)])
 
     def rule_flags(self) -> np.ndarray:
         """The soil model's flags of the last step (bits of :mod:`geocel.materials.flags`), every cell."""
@@ -404,7 +417,7 @@ class NestedBackend(CartesianBackend):
         return min(lvl.grid.smallest_cell() for lvl in self.field.levels)
 
     def max_speed(self) -> float:
-        return soil_speed([(lvl.v, lvl.nmass) for lvl in self.field.levels])
+        return soil_speed([(lvl.v, lvl.Vs, lvl.volume) for lvl in self.field.levels])
 
     def rule_flags(self) -> np.ndarray:
         return np.concatenate([lvl.flags.ravel() for lvl in self.field.levels])
