@@ -265,7 +265,8 @@ def test_the_reported_speed_leaves_out_the_voids_dust():
     """``max_velocity`` in the history: the nodes whose cells are all less than 10⁻³ full are left out, whatever
     their speed; a node next to soil counts, however small its cells (graded grids: the cells' fractions, not
     the nodal masses, decide)."""
-    from geocel.solver.backend import DUST_FRACTION, node_fraction, soil_speed
+    from geocel.solver.backend import DUST_FRACTION, soil_speed
+    from geocel.solver.field import node_fraction
 
     phi = np.array([[1.0, 0.5, 0.0], [1.0, 0.2 * DUST_FRACTION, 0.0]])
     np.testing.assert_array_equal(
@@ -278,3 +279,20 @@ def test_the_reported_speed_leaves_out_the_voids_dust():
     v[0, 1, 1] = -0.05  # a node of the fine row, next to soil
     assert soil_speed([(v, phi * volume, volume)]) == 0.05
     assert soil_speed([(v, 0.0 * volume, volume)]) == 0.0  # no soil
+
+
+def test_a_runaway_is_a_node_by_soil_that_moved_more_than_a_cell_whatever_its_mass():
+    """The instability check between remaps: a node next to a cell at least 1 % full that moved more than a cell
+    counts, even where the cells are a million times smaller than the grid's largest (a graded grid's fine zone);
+    a node next to nearly empty cells only (the void's dust) does not, nor does a node that moved less."""
+    from geocel.solver.field import runaway_nodes
+
+    phi = np.array([[1.0, 0.5, 0.0], [1.0, 0.002, 0.0]])
+    volume = np.array([[1e-6, 1e-6, 1e-6], [1.0, 1.0, 1.0]])
+    u = np.zeros((3, 4, 2))
+    rec = (np.full(3, 10.0), np.full(4, 10.0))  # 0.1 m spacing
+    u[0, 1, 1] = 0.15  # fine row, next to soil: 1.5 cells
+    u[2, 2, 0] = 0.5  # next to the 0.2 % full cell only: dust
+    u[1, 0, 0] = 0.09  # soil, less than a cell
+    flagged = runaway_nodes(u, rec, phi * volume, volume)
+    assert flagged.sum() == 1 and flagged[0, 1]

@@ -18,7 +18,6 @@ modelled part in 3D, factor 1; the whole ring in r–z, whose field holds them p
 
 from __future__ import annotations
 
-import itertools
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -29,6 +28,7 @@ from ..bodies.geometry import PileGeometry, pile_mesh
 from ..bodies.pile import RigidPile, head_velocity
 from ..euler.lagrange import PHI_MIN
 from ..io.vtk import write_rectilinear, write_rectilinear_rz, write_unstructured_hex
+from .field import node_fraction, soil_fraction_of_cells
 
 if TYPE_CHECKING:
     from ..config.scenario import Scenario
@@ -76,23 +76,12 @@ def rz_grid(scenario: Scenario):
 DUST_FRACTION = 1e-3
 
 
-def node_fraction(phi: np.ndarray) -> np.ndarray:
-    """The largest soil fraction of the cells round each node: cell array (n₁, …, n_d) → node array (n₁ + 1, …).
-    Dimensionless, so that graded cells (whose nodal masses differ by orders of magnitude) compare alike."""
-    out = np.zeros(tuple(n + 1 for n in phi.shape))
-    for shift in itertools.product((0, 1), repeat=phi.ndim):
-        view = out[tuple(slice(o, o + n) for o, n in zip(shift, phi.shape, strict=True))]
-        np.maximum(view, phi, out=view)
-    return out
-
-
 def soil_speed(grids: list[tuple[np.ndarray, np.ndarray, np.ndarray]], fraction: float = DUST_FRACTION) -> float:
     """Largest velocity component (m/s) over the nodes next to a cell at least ``fraction`` full, over ``grids``
     ((node velocities, cells' soil volumes, cell volumes) per grid, e.g. the levels of nested columns)."""
     speed = 0.0
     for v, Vs, volume in grids:
-        phi = np.divide(Vs, volume, out=np.zeros(Vs.shape), where=volume > 0.0)
-        soil = node_fraction(phi) >= fraction
+        soil = node_fraction(soil_fraction_of_cells(Vs, volume)) >= fraction
         speed = max(speed, float(np.abs(v[soil]).max(initial=0.0)))
     return speed
 

@@ -9,6 +9,7 @@ hourglass forces scale the same way), so S only stretches the time axis by √S.
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass, field
 
@@ -52,17 +53,35 @@ ENERGY_KEYS = (
 )
 
 
-def runaway_nodes(u: np.ndarray, reciprocals: tuple, nmass: np.ndarray, share: float = 0.01) -> np.ndarray:
+def node_fraction(phi: np.ndarray) -> np.ndarray:
+    """The largest soil fraction of the cells round each node: cell array (n₁, …, n_d) → node array (n₁ + 1, …).
+    Dimensionless, so that graded cells (whose nodal masses differ by orders of magnitude) compare alike."""
+    out = np.zeros(tuple(n + 1 for n in phi.shape))
+    for shift in itertools.product((0, 1), repeat=phi.ndim):
+        view = out[tuple(slice(o, o + n) for o, n in zip(shift, phi.shape, strict=True))]
+        np.maximum(view, phi, out=view)
+    return out
+
+
+def soil_fraction_of_cells(Vs: np.ndarray, volume: np.ndarray) -> np.ndarray:
+    """V_s / V per cell (0 where a cell has no volume)."""
+    return np.divide(Vs, volume, out=np.zeros(Vs.shape), where=volume > 0.0)
+
+
+def runaway_nodes(
+    u: np.ndarray, reciprocals: tuple, Vs: np.ndarray, volume: np.ndarray, fraction: float = 0.01
+) -> np.ndarray:
     """Mask of the nodes that moved more than a cell (``u``, m, against the node spacings' ``reciprocals`` per
-    axis) since the last remap and carry at least ``share`` of the largest nodal mass: with Δt within the
-    stable step no node with soil does (the step's bound includes the speed), but a nearly empty node at the
-    free surface may outrun its cell harmlessly (the remap moves no more soil than a donor holds)."""
-    c = np.zeros(nmass.shape)
+    axis) since the last remap and are next to a cell at least ``fraction`` full: with Δt within the stable step
+    no node with soil does (the step's bound includes the speed), but a nearly empty node at the free surface
+    may outrun its cell harmlessly (the remap moves no more soil than a donor holds). (The cells' fractions
+    decide, not the nodal masses, which differ by orders of magnitude on graded grids.)"""
+    c = np.zeros(u.shape[:-1])
     for d, rec in enumerate(reciprocals):
-        shape = [1] * nmass.ndim
+        shape = [1] * c.ndim
         shape[d] = -1
         c = np.maximum(c, np.abs(u[..., d]) * rec.reshape(shape))
-    return (c > 1.0) & (nmass >= share * nmass.max())
+    return (c > 1.0) & (node_fraction(soil_fraction_of_cells(Vs, volume)) >= fraction)
 
 
 class InstabilityError(RuntimeError):
@@ -552,7 +571,7 @@ class SoilField(FieldBalances):
 
     def runaway(self) -> bool:
         """Whether a node with soil moved more than a cell since the last remap (:func:`runaway_nodes`)."""
-        return bool(runaway_nodes(self.u_remap, self._node_reciprocal, self.nmass).any())
+        return bool(runaway_nodes(self.u_remap, self._node_reciprocal, self.Vs, self.volume).any())
 
     def remap_due(self, courant: float) -> bool:
         """Whether the remap comes now: after every step, or once the pending Courant number reaches
