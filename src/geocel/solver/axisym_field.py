@@ -267,7 +267,9 @@ class AxisymmetricField(FieldBalances):
             courant = _accumulate_rz(
                 self._node_reciprocal[0], self._node_reciprocal[1], self.v, dt, self.u_remap, wz
             )
-            runaway = runaway_nodes(self.u_remap, self._node_reciprocal, self.Vs, self.volume) if courant > 1.0 else None
+            runaway = None
+            if courant > 1.0:
+                runaway = runaway_nodes(self.u_remap, self._node_reciprocal, self.Vs, self.volume)
             if runaway is not None and runaway.any():
                 speed = np.where(runaway, np.abs(self.v).max(axis=-1), -1.0)  # the fastest of those with soil
                 i, k = (int(t) for t in np.unravel_index(np.argmax(speed), speed.shape))
