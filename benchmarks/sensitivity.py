@@ -3,13 +3,13 @@ halved and doubled (one at a time) and the change of the result is printed.
 
     python benchmarks/sensitivity.py punch [--cells-per-radius 8]
     python benchmarks/sensitivity.py pile [--penetration 1.5] [--kind rigid] [--only safety_factor ...]
-    python benchmarks/sensitivity.py pile-rz [--cells-per-radius 6] [--penetration 1.0] [--jobs 2]
+    python benchmarks/sensitivity.py pile-rz [--cells-per-radius 6] [--penetration 1.0] [--jobs 2] [--nonlocal-length 0]
     python benchmarks/sensitivity.py pile-3d [--cells-per-radius 3] [--penetration 1.0] [--jobs 2]
 
 ``punch``: the mean q/c_u over 4–8 % D of the smooth rigid punch on Tresca soil (Shield: 5.69).
 ``pile``: q_b(z) and q_s(z) of the jacked pile at the demo resolution (small container, S = 10,
 0.5 m/s), as the MPE against the default run over the tip depths ≥ 0.3 m. ``pile-rz``: the same for the rigid
-pile in r–z in the pile's frame (the preset's sand with l = 0.1 m, the centrifuge's container, the default
+pile in r–z in the pile's frame (the preset's sand, the centrifuge's container, the default
 corner; ``--cells-per-radius`` fine cells of a/n), q_b over tip depths ≥ 0.3 m and q_s ≥ 0.5 m; the remap
 runs after every step there, so its Courant number is not varied. ``pile-rz`` also runs the default with the
 jacking speed changed by one part in a million: the dense sand's shear bands amplify such a perturbation, and the
@@ -20,7 +20,9 @@ number is varied too).
 
 The coefficients: viscous hourglass damping κ, the multiplier of the physical hourglass stiffness, linear
 and quadratic bulk viscosity, the remap's Courant number, the time-step safety factor and the soil model's
-substep (fraction of R). Last line: the largest change (%) over all of them.
+substep (fraction of R). ``pile-rz`` also varies the grid outside the fine zone: the fine zone's radius
+(halved and doubled) and the growth of the cells beyond it (growth − 1 halved and doubled). Last line: the
+largest change (%) over all of them.
 """
 
 from __future__ import annotations
@@ -42,6 +44,12 @@ COEFFICIENTS = {
     "soil_substep": 0.1,
 }
 
+
+#: the r–z grid's grading outside the fine zone (pile-rz): the [domain] key, its value's function of the factor
+GRADING = {
+    "fine_radius": lambda f: 1.2 * f,
+    "growth": lambda f: 1.0 + 0.15 * f,
+}
 
 #: the default run with the jacking speed changed by one part in a million (pile-rz)
 NOISE = "noise: speed x(1 + 1e-6)"
@@ -116,11 +124,11 @@ def _preset_run(args) -> tuple:
     from geocel.io.history import read_history
     from geocel.solver.simulation import Simulation
 
-    name, solver, mode, cells, penetration, tmp = args
+    name, solver, mode, cells, penetration, tmp, length = args
     solver = dict(solver)
     velocity = 0.5 * (1.0 + solver.pop("speed_perturbation", 0.0))
     if mode == "pile-rz":
-        # the r–z preset's model (pile's frame, split corner, l = 0.1 m) with its grading at this cell size; the
+        # the r–z preset's model (pile's frame, split corner, its sand) with its grading at this cell size; the
         # void as in the measured study (0.1 m lower than the preset's)
         d = preset_dict(
             "deeks-white", penetration=penetration, velocity=velocity, symmetry="axisymmetric", scaling=10
@@ -136,6 +144,9 @@ def _preset_run(args) -> tuple:
             layout="nested",
         )
     d["output"].update(history_every=0.01, fields_every=penetration)
+    d["domain"].update(solver.pop("domain", {}))
+    if length is not None:
+        d["soil"]["nonlocal_length"] = length
     d.setdefault("solver", {}).update(solver)
     d["name"] = safe = re.sub(r"[^A-Za-z0-9_.+-]+", "_", name).strip("_")  # a run name is a file name
     sim = Simulation(scenario_from_dict(d), out=Path(tmp) / safe, progress=False, write_fields=False)
@@ -145,12 +156,21 @@ def _preset_run(args) -> tuple:
     return name, h["tip_depth"].to_numpy(), h["qb"].to_numpy(), h["qs"].to_numpy(), time.perf_counter() - t0
 
 
-def pile_preset(mode: str, cells: int, penetration: float, only=None, jobs: int = 1) -> None:
+def pile_preset(
+    mode: str, cells: int, penetration: float, only=None, jobs: int = 1, length: float | None = None
+) -> None:
     from concurrent.futures import ProcessPoolExecutor
 
     # (in r–z, the pile's frame remaps after every step: its Courant number is not a coefficient there)
     variants = [(n, v) for n, v in _variants(only) if mode == "pile-3d" or "remap_courant" not in v]
     variants.insert(1, (NOISE, {"speed_perturbation": 1.0e-6}))
+    if mode == "pile-rz":
+        variants += [
+            (f"{key} x{f:g}" + (" (growth - 1)" if key == "growth" else ""), {"domain": {key: grade(f)}})
+            for key, grade in GRADING.items()
+            if not only or key in only
+            for f in (0.5, 2.0)
+        ]
     h = 0.3 / cells
 
     def window(z, q, at):  # the mean over one fine cell of depth around each depth (the base's ripple)
@@ -159,7 +179,7 @@ def pile_preset(mode: str, cells: int, penetration: float, only=None, jobs: int 
     at_b = np.round(np.arange(0.3, penetration + 1e-9, 0.1), 6)
     at_s = at_b[at_b >= min(0.5, at_b[-1]) - 1e-9]  # q_s is small and noisy above 0.5 m
     with tempfile.TemporaryDirectory() as tmp, ProcessPoolExecutor(jobs) as pool:
-        runs = list(pool.map(_preset_run, [(n, v, mode, cells, penetration, tmp) for n, v in variants]))
+        runs = list(pool.map(_preset_run, [(n, v, mode, cells, penetration, tmp, length) for n, v in variants]))
     ref = None
     worst_b = worst_s = 0.0
     for name, z, qb, qs, wall in runs:
@@ -183,7 +203,12 @@ def main() -> None:
         "--jobs", type=int, default=1, help="pile-rz, pile-3d: runs in parallel (one thread each)"
     )
     ap.add_argument("--kind", default="rigid", choices=("rigid", "coupled", "solid"))
-    ap.add_argument("--only", nargs="+", choices=list(COEFFICIENTS), help="vary only these coefficients")
+    ap.add_argument(
+        "--nonlocal-length", type=float, default=None, help="pile-rz, pile-3d: the sand's l, m (default: the preset's)"
+    )
+    ap.add_argument(
+        "--only", nargs="+", choices=[*COEFFICIENTS, *GRADING], help="vary only these coefficients (grading: pile-rz)"
+    )
     a = ap.parse_args()
     if a.case == "punch":
         punch(a.cells_per_radius or 8, a.only)
@@ -191,7 +216,9 @@ def main() -> None:
         pile(a.penetration or 1.5, a.kind, a.only)
     else:
         default_cells = 6 if a.case == "pile-rz" else 3
-        pile_preset(a.case, a.cells_per_radius or default_cells, a.penetration or 1.0, a.only, a.jobs)
+        pile_preset(
+            a.case, a.cells_per_radius or default_cells, a.penetration or 1.0, a.only, a.jobs, a.nonlocal_length
+        )
 
 
 if __name__ == "__main__":
