@@ -45,10 +45,11 @@ COEFFICIENTS = {
 }
 
 
-#: the r–z grid's grading outside the fine zone (pile-rz): the [domain] key, its value's function of the factor
+#: the r–z grid's grading outside the fine zone (pile-rz): the [domain] key → its varied value from the preset's
+#: value and the factor
 GRADING = {
-    "fine_radius": lambda f: 1.2 * f,
-    "growth": lambda f: 1.0 + 0.15 * f,
+    "fine_radius": lambda value, f: value * f,
+    "growth": lambda value, f: 1.0 + (value - 1.0) * f,
 }
 
 #: the default run with the jacking speed changed by one part in a million (pile-rz)
@@ -144,7 +145,8 @@ def _preset_run(args) -> tuple:
             layout="nested",
         )
     d["output"].update(history_every=0.01, fields_every=penetration)
-    d["domain"].update(solver.pop("domain", {}))
+    for key, f in solver.pop("grading", {}).items():
+        d["domain"][key] = GRADING[key](d["domain"][key], f)
     if length is not None:
         d["soil"]["nonlocal_length"] = length
     d.setdefault("solver", {}).update(solver)
@@ -166,8 +168,8 @@ def pile_preset(
     variants.insert(1, (NOISE, {"speed_perturbation": 1.0e-6}))
     if mode == "pile-rz":
         variants += [
-            (f"{key} x{f:g}" + (" (growth - 1)" if key == "growth" else ""), {"domain": {key: grade(f)}})
-            for key, grade in GRADING.items()
+            (f"{key} x{f:g}" + (" (growth - 1)" if key == "growth" else ""), {"grading": {key: f}})
+            for key in GRADING
             if not only or key in only
             for f in (0.5, 2.0)
         ]
