@@ -271,3 +271,16 @@ def test_a_3d_run_with_the_length_steps_and_the_factor_acts(tmp_path):
     lam = sim.field.nonlocal_factor
     assert sim.field._nonlocal_weights is not None
     assert lam.min() == 1.0 and lam.max() > 1.1
+
+
+@pytest.mark.parametrize(("length", "noted"), [(0.0, False), (0.05, True), (0.1, False)])
+def test_a_length_that_the_fine_cells_do_not_resolve_gets_a_note(tmp_path, length, noted):
+    # docs/numerics.md, "Which l": below two cells per l the mean does not regularise (the r–z demo's cells: 0.05 m)
+    from geocel.benchmark.presets import preset_dict
+    from geocel.solver.simulation import Simulation
+
+    d = preset_dict("deeks-white", symmetry="axisymmetric")
+    d["soil"]["nonlocal_length"] = length
+    sim = Simulation(scenario_from_dict(d), out=tmp_path / "run", progress=False)
+    assert d["domain"]["fine_size"] == 0.05
+    assert any("nonlocal_length" in n and "fewer than 2 fine cells" in n for n in sim.notes) == noted

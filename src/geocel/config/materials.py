@@ -158,7 +158,8 @@ class Hypoplastic(_Material):
         ge=0.0,
         le=10.0,
         description="internal length l of the non-local nonlinear term N‖D‖* (Gaussian weight exp(−(d/l)²), at the "
-        "scale of the model; 0 is the local model), m (experimental: docs/numerics.md, 'Non-local hypoplasticity')",
+        "scale of the model; 0 is the local model; at least 2 fine cells per l, else a run gets a note), m "
+        "(experimental: docs/numerics.md, 'Non-local hypoplasticity')",
     )
 
     model_id: ClassVar[int] = HYPOPLASTIC

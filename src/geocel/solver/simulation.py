@@ -63,6 +63,9 @@ CHECKPOINT_FORMAT = 3
 #: tip depth (m) below which the 3D q_b was found not grid-converged (docs/validation.md, "To 9 m": within 5 %
 #: of r–z to about 2 m at 3 cells per pile radius, then diverging); a 3D pile run deeper gets a note
 UNCONVERGED_3D_DEPTH = 2.0
+#: fine cells per internal length below which the non-local sand is as mesh-dependent as the local one
+#: (docs/numerics.md, "Which l": q_b moved 7.4 % from one to two cells per l, 2.7 % from two to four); a run gets a note
+MIN_CELLS_PER_LENGTH = 2.0
 
 
 def build_grid(scenario: Scenario) -> Grid:
@@ -259,6 +262,13 @@ class Simulation:
                 "round-off when nothing depends on θ (tests/test_cylindrical.py); for motions that vary round the "
                 "axis its tied sectors and its non-local mean are first approximations, not measured yet "
                 '(docs/numerics.md, "The cylindrical layout")'
+            )
+        length = getattr(scenario.soil.material, "nonlocal_length", 0.0)
+        if 0.0 < length < MIN_CELLS_PER_LENGTH * scenario.domain.fine_size:
+            self.notes.append(
+                f"[soil] nonlocal_length = {length:g} m spans fewer than {MIN_CELLS_PER_LENGTH:g} fine cells of "
+                f"{scenario.domain.fine_size:g} m: the mean does not resolve it, and q_b moves with the cell size as "
+                'with the local sand (docs/numerics.md, "Which l")'
             )
         if self.has_pile and cartesian and scenario.domain.frame == "pile":
             self.notes.append(
