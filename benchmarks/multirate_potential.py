@@ -28,9 +28,10 @@ from geocel.solver.backend import build_backend
 
 def levels(run: Path, max_level: int) -> tuple[np.ndarray, float]:
     """Levels of the soil cells (−1 for cells without soil) and the smallest cell step (s)."""
-    field = build_backend(load_scenario(run / "config.toml")).field
-    if not hasattr(field, "hr"):
+    scenario = load_scenario(run / "config.toml")
+    if scenario.domain.symmetry != "axisymmetric":
         raise SystemExit(f"{run}: not an axisymmetric run")
+    field = build_backend(scenario).field
     arrays, _ = load_checkpoint(run / "checkpoint.npz")
     Vs, mass, M = arrays["Vs"], arrays["mass"], arrays["modulus"]
     soil = (Vs > PHI_MIN * field.volume) & (M > 0.0)
