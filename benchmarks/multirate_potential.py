@@ -20,8 +20,6 @@ from pathlib import Path
 import numpy as np
 
 from geocel.config.scenario import load_scenario
-from geocel.euler.axisym import characteristic_length_rz
-from geocel.euler.lagrange import PHI_MIN
 from geocel.io.checkpoint import load_checkpoint
 from geocel.solver.backend import build_backend
 
@@ -33,14 +31,12 @@ def levels(run: Path, max_level: int) -> tuple[np.ndarray, float]:
         raise SystemExit(f"{run}: not an axisymmetric run")
     field = build_backend(scenario).field
     arrays, _ = load_checkpoint(run / "checkpoint.npz")
-    Vs, mass, M = arrays["Vs"], arrays["mass"], arrays["modulus"]
-    soil = (Vs > PHI_MIN * field.volume) & (M > 0.0)
-    rho = mass[soil] / Vs[soil]
-    le = np.broadcast_to(characteristic_length_rz(field.hr[:, None], field.hz[None, :]), Vs.shape)[soil]
-    dt_cell = le / np.sqrt(M[soil] / rho)
-    dt_min = float(dt_cell.min())
-    lev = np.full(Vs.shape, -1)
-    lev[soil] = np.minimum(np.floor(np.log2(dt_cell / dt_min)), max_level).astype(int)
+    field.Vs[...], field.mass[...] = arrays["Vs"], arrays["mass"]
+    dt_cell = field.cell_time_steps(arrays["modulus"])
+    soil = np.isfinite(dt_cell)
+    dt_min = float(dt_cell[soil].min())
+    lev = np.full(dt_cell.shape, -1)
+    lev[soil] = np.minimum(np.floor(np.log2(dt_cell[soil] / dt_min)), max_level).astype(int)
     return lev, dt_min
 
 

@@ -209,18 +209,21 @@ class AxisymmetricField(FieldBalances):
 
     def stable_time_step(self) -> float:
         """min L_e/c over the soil cells, c = √(M/ρ) of the current state, L_e = :func:`characteristic_length_rz`."""
-        soil = self.Vs > PHI_MIN * self.volume
-        if not soil.any():
+        dtc = self.cell_time_steps(self._modulus_now())
+        if not np.isfinite(dtc).any():
             return np.inf
-        M = self._modulus_now()[soil]
-        rho = self.mass[soil] / self.Vs[soil]
-        le = np.broadcast_to(characteristic_length_rz(self.hr[:, None], self.hz[None, :]), self.Vs.shape)[
-            soil
-        ]
-        dtc = le / np.sqrt(M / rho)
-        self.governing_cell = int(np.flatnonzero(soil.ravel())[np.argmin(dtc)])
-        self.dt_critical = float(dtc.min())
+        self.governing_cell = int(np.argmin(dtc))
+        self.dt_critical = float(dtc.ravel()[self.governing_cell])
         return self.dt_critical
+
+    def cell_time_steps(self, modulus: np.ndarray) -> np.ndarray:
+        """Each cell's own stable step L_e/√(M/ρ) (s) for the P-wave moduli ``modulus`` (Pa); inf without soil."""
+        soil = self.Vs > PHI_MIN * self.volume
+        dtc = np.full(self.Vs.shape, np.inf)
+        rho = self.mass[soil] / self.Vs[soil]
+        le = np.broadcast_to(characteristic_length_rz(self.hr[:, None], self.hz[None, :]), self.Vs.shape)[soil]
+        dtc[soil] = le / np.sqrt(modulus[soil] / rho)
+        return dtc
 
     # --- the explicit step ----------------------------------------------------------------------------------
     def step(self, dt: float | None = None) -> None:
