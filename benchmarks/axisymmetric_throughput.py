@@ -1,13 +1,16 @@
 """Throughput of the axisymmetric (r–z) soil step: cell-steps per second of the full step.
 
     NUMBA_NUM_THREADS=1 python benchmarks/axisymmetric_throughput.py [steps] [remap_courant]
-    NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_throughput.py --run [steps] [resolution] [pile] [remap_courant]
+    NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_throughput.py --run [steps] [resolution] [pile] [remap_courant] \
+        [multirate_levels]
 
 The first form times the soil step alone (Lagrangian phase, hypoplastic update, remap) on a graded grid of about
 50 000 cells with a punch pressed into it. ``--run`` times whole steps of ``geocel run`` on the r–z preset
 (``geocel preset deeks-white --symmetry axisymmetric``: the pile's frame, the remap after every step (or after
 ``remap_courant`` of a cell), the non-local sand, contact and outputs) at a resolution (demo | coarse | paper: 6, 12, 24 cells per pile radius; default coarse) with
-a pile (default coupled), S = 10, 0.5 m/s, after a first run that compiles. Prints the grid, the time per phase
+a pile (default coupled), S = 10, 0.5 m/s, after a first run that compiles; ``multirate_levels`` > 0 steps it
+multi-rate (``[solver] multirate_levels``; its gain grows with depth, as the soil under the base stiffens: the
+first steps of a run show little of it). Prints the grid, the time per phase
 and, on the last line, ``cell_steps_per_s=<number>``.
 """
 
@@ -63,7 +66,11 @@ def main(steps: int = 200, remap_courant: float = 0.02) -> float:
 
 
 def run(
-    steps: int = 2000, resolution: str = "coarse", pile: str = "coupled", remap_courant: float | None = None
+    steps: int = 2000,
+    resolution: str = "coarse",
+    pile: str = "coupled",
+    remap_courant: float | None = None,
+    multirate_levels: int = 0,
 ) -> float:
     import tempfile
 
@@ -76,6 +83,7 @@ def run(
         velocity=0.5, scaling=10.0,
     )  # fmt: skip
     remap = {} if remap_courant is None else {"remap_courant": remap_courant}
+    remap["multirate_levels"] = multirate_levels
     with tempfile.TemporaryDirectory() as tmp:
         d["solver"] = {"max_steps": 50, **remap}
         Simulation(scenario_from_dict(d), out=f"{tmp}/compile", progress=False, write_fields=False).run()
@@ -87,7 +95,8 @@ def run(
     cells = s["soil_cells"]
     rate = cells * (len(marks) - 1) / wall
     print(f"r–z preset, {resolution} resolution, {pile} pile: {cells} cells, {len(marks) - 1} steps in {wall:.2f} s, "
-          f"Δt {s['dt_last']:.3g} s, remap_courant {sim.scenario.solver.remap_courant:g}, remaps {s['remaps']}")  # fmt: skip
+          f"Δt {s['dt_last']:.3g} s, remap_courant {sim.scenario.solver.remap_courant:g}, remaps {s['remaps']}, "
+          f"multirate_levels {multirate_levels}")  # fmt: skip
     print("phase times (s): " + ", ".join(f"{k} {v:.2f}" for k, v in sim.field.timers.items()))
     print(f"cell_steps_per_s={rate:.4g}")
     return rate
@@ -96,6 +105,6 @@ def run(
 if __name__ == "__main__":
     args = sys.argv[1:]
     if args and args[0] == "--run":
-        run(*(f(a) for f, a in zip((int, str, str, float), args[1:], strict=False)))
+        run(*(f(a) for f, a in zip((int, str, str, float, int), args[1:], strict=False)))
     else:
         main(int(args[0]) if args else 200, float(args[1]) if len(args) > 1 else 0.02)

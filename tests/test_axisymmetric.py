@@ -46,6 +46,7 @@ def _update(g, mat, Vs, mass, c, v, dt, kappa_s=1.0, b1=0.0, b2=0.0, kappa=0.0):
         model_tag(mat.model_id), mat.to_array(), g.rc, g.hr, g.hz, Vs, mass, c["stress"], c["state"], v,
         c["q"], c["hg"], c["modulus"], c["flags"], dt, b1, b2, kappa, kappa_s, 1, *mat.strength_line(),
         mat.substep_strain(0.1), np.ones(Vs.shape), False, get_num_threads(), NO_SPLIT,
+        np.zeros(Vs.shape, dtype=np.int8), 0, np.zeros(Vs.shape),
     )  # fmt: skip
 
 
@@ -57,7 +58,8 @@ def _nodal_forces(g, Vs, mass, c):
     zero = np.zeros_like(v)
     fix = np.zeros(v.shape, dtype=np.uint8)
     advance_nodes_rz(g.hr, g.hz, g.rc, Vs, mass, c["stress"], c["q"], c["hg"], nm, v, fix, zero, zero,
-                     zero.copy(), 0.0, 0.0, 1.0, 0.0, np.empty((*Vs.shape, FORCE_FACTORS_RZ)))  # fmt: skip
+                     zero.copy(), 0.0, 0.0, 1.0, 0.0, np.empty((*Vs.shape, FORCE_FACTORS_RZ)),
+                     np.zeros(Vs.shape, dtype=np.int8), np.zeros(nm.shape, dtype=np.int8), 0)  # fmt: skip
     return nm[..., None] * v
 
 

@@ -545,6 +545,15 @@ class Solver(_Table):
         "(the Lagrangian displacements accumulate in between, as LS-DYNA's advection cycles); 0: remap after "
         'every step, as Abaqus/Explicit CEL (the default in the pile\'s frame, [domain] frame = "pile"), -',
     )
+    multirate_levels: int = Field(
+        0,
+        ge=0,
+        le=4,
+        description="multi-rate time stepping in r–z (symmetry = \"axisymmetric\"): cells and nodes whose stable "
+        "step allows it advance every 2, 4, … 2^levels steps over that multiple of Δt (the soil stiffened under "
+        "the pile's base sets Δt for all cells otherwise), the remap once every 2^levels steps; 0: every cell "
+        "and node in every step, -",
+    )
     pile_subcycling: bool = Field(
         True,
         description="advance a solid (conventional) pile whose stable step is below the soil's with several "
@@ -610,6 +619,12 @@ class Scenario(_Table):
             self._check_void_ratios()
         if self.domain.frame == "pile" and self.pile is None:
             raise _invalid(("domain", "frame"), "pile", "the pile's frame needs a [pile]")
+        if self.solver.multirate_levels > 0 and (
+            self.domain.symmetry != "axisymmetric" or self.domain.layout == "cylindrical"
+        ):
+            raise _invalid(
+                ("solver", "multirate_levels"), self.solver.multirate_levels, 'an option of symmetry = "axisymmetric"'
+            )
         if self.pile is not None:
             self._check_pile_geometry()
             if self.domain.symmetry == "axisymmetric" or self.domain.layout == "cylindrical":

@@ -685,6 +685,10 @@ class AxisymmetricPileContact:
             if self.rim == "corner":
                 raise ValueError('rim = "corner" needs the pile\'s frame ([domain] frame = "pile", follow_pile())')
             self._kc = kc = self.base_row()
+        # multi-rate: the nodes this contact may project advance in every step (from a row below the base's: in
+        # a fixed grid the base reaches the next row within a cycle)
+        f.level0_nodes[0] = self.ia + 1
+        f.level0_nodes[1] = kc - 1
         if self._v_comb is not None:  # the nodal pass works on the corner's mean velocity
             f.v[self.ia, kc] = self._v_comb
             self._v_comb = None

@@ -151,9 +151,52 @@ def cell_force_factors_rz(ci, ck, gr_, gz_, nr_, Vs, mass, stress, q, hg, out):
     out[9] = m * hg[ci, ck, 1]
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def level_active(level, phase):
+    """Whether a cell or node of multi-rate level ``level`` advances in the step ``phase`` of the cycle (every
+    2^level steps, over 2^level Δt)."""
+    return (phase & ((1 << level) - 1)) == 0
+
+
+@njit(**KERNEL_OPTIONS)
+def assign_levels_rz(cell_dt, soil, dt, max_level, level0_nodes, clevel, nlevel):
+    """Multi-rate levels for the next cycle of 2^``max_level`` steps of Δt = ``dt`` (LS-DYNA's subcycling by
+    powers of two, the nodal partition of Belytschko, Yen & Mullen 1979): a soil cell may advance over 2^L Δt
+    while that is within its own stable step ``cell_dt`` (s, the safety factor applied; 0 or inf for a cell
+    not updated yet: level 0); a node takes the smallest level of its soil cells (``max_level`` without
+    any), the nodes of the first ``level0_nodes[0]`` columns from the row ``level0_nodes[1]`` up (those the pile's
+    contact projects) level 0, and every cell the
+    smallest level of its four nodes. So a node advances only when all its cells have reached its time, and
+    no cell or node steps beyond its own stable step. Serial: once per cycle."""
+    ncr, ncz = cell_dt.shape
+    for i in range(ncr + 1):
+        for k in range(ncz + 1):
+            nlevel[i, k] = max_level
+    for i in range(ncr):
+        for k in range(ncz):
+            if not soil[i, k]:
+                continue
+            t = cell_dt[i, k]
+            lev = 0
+            if t < np.inf:
+                while lev < max_level and dt * (1 << (lev + 1)) <= t:
+                    lev += 1
+            for a in range(2):
+                for b in range(2):
+                    if lev < nlevel[i + a, k + b]:
+                        nlevel[i + a, k + b] = lev
+    for i in range(min(level0_nodes[0], ncr + 1)):
+        for k in range(max(level0_nodes[1], 0), ncz + 1):
+            nlevel[i, k] = 0
+    for i in range(ncr):
+        for k in range(ncz):
+            clevel[i, k] = min(nlevel[i, k], nlevel[i + 1, k], nlevel[i, k + 1], nlevel[i + 1, k + 1])
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
 def advance_nodes_rz(
     hr, hz, rc, Vs, mass, stress, q, hg, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt, mtiny, work,
+    clevel, nlevel, phase,
 ):  # fmt: skip
     """v ← v + Δt f/m with stress, viscous, hourglass, gravity and external forces (per radian); then the
     boundary conditions: fixed components take the prescribed velocity ``vfix`` and their reaction
@@ -169,7 +212,11 @@ def advance_nodes_rz(
 
     Energies as in :func:`geocel.euler.lagrange.advance_nodes` (the work of each force with the mean
     velocity v̄ = (v^{n−½} + v^{n+½})/2): returns (kinetic energy at n, work of the stresses, viscous
-    dissipation, hourglass dissipation, work of gravity, work of the external forces and reactions), J/rad."""
+    dissipation, hourglass dissipation, work of gravity, work of the external forces and reactions), J/rad.
+
+    Multi-rate (:func:`assign_levels_rz`): a node of level L (``nlevel``) advances only in the steps ``phase``
+    that are multiples of 2^L, over 2^L Δt; its cells (``clevel`` ≤ L) are then all at that time. The others
+    keep their velocity (and count it in the kinetic energy). All levels 0: the single-rate step."""
     ncr, ncz = Vs.shape
     cf = work
     gr_ = 0.5 / hr
@@ -177,9 +224,9 @@ def advance_nodes_rz(
     nr_ = 0.25 / rc
     for ci in prange(ncr):
         for ck in range(ncz):
-            cell_force_factors_rz(ci, ck, gr_, gz_, nr_, Vs, mass, stress, q, hg, cf[ci, ck])
+            if level_active(clevel[ci, ck], phase):
+                cell_force_factors_rz(ci, ck, gr_, gz_, nr_, Vs, mass, stress, q, hg, cf[ci, ck])
     acc = np.empty((ncr + 1, 6))  # (every row is written; np.zeros would be a parallel loop of its own)
-    a_half = 0.5 * damping * dt
     for i in prange(ncr + 1):
         ke = 0.0
         wi = 0.0
@@ -189,6 +236,10 @@ def advance_nodes_rz(
         wx = 0.0
         for k in range(ncz + 1):
             m = nmass[i, k]
+            lev = nlevel[i, k]
+            if not level_active(lev, phase):  # (its velocity holds over its level's step)
+                ke += 0.5 * m * (v[i, k, 0] * v[i, k, 0] + v[i, k, 1] * v[i, k, 1])
+                continue
             if m <= mtiny:
                 v[i, k, 0] = vfix[i, k, 0] if fix[i, k, 0] else 0.0
                 v[i, k, 1] = vfix[i, k, 1] if fix[i, k, 1] else 0.0
@@ -216,7 +267,9 @@ def advance_nodes_rz(
             fgz = -m * gravity
             fr = fs0 + fq0 + fh0 + fext[i, k, 0]
             fz = fs1 + fq1 + fh1 + fgz + fext[i, k, 1]
-            c = dt / m
+            h_t = dt * (1 << lev)
+            a_half = 0.5 * damping * h_t
+            c = h_t / m
             o0 = v[i, k, 0]
             o1 = v[i, k, 1]
             v0 = ((1.0 - a_half) * o0 + c * fr) / (1.0 + a_half)
@@ -236,12 +289,12 @@ def advance_nodes_rz(
             m0 = 0.5 * (o0 + v0)
             m1 = 0.5 * (o1 + v1)
             ke += 0.5 * m * (m0 * m0 + m1 * m1)
-            wi -= (fs0 * m0 + fs1 * m1) * dt
-            wv -= (fq0 * m0 + fq1 * m1) * dt
-            wv += damping * m * (m0 * m0 + m1 * m1) * dt
-            wh -= (fh0 * m0 + fh1 * m1) * dt
-            wg += fgz * m1 * dt
-            wx += ((fext[i, k, 0] + r0) * m0 + (fext[i, k, 1] + r1) * m1) * dt
+            wi -= (fs0 * m0 + fs1 * m1) * h_t
+            wv -= (fq0 * m0 + fq1 * m1) * h_t
+            wv += damping * m * (m0 * m0 + m1 * m1) * h_t
+            wh -= (fh0 * m0 + fh1 * m1) * h_t
+            wg += fgz * m1 * h_t
+            wx += ((fext[i, k, 0] + r0) * m0 + (fext[i, k, 1] + r1) * m1) * h_t
         acc[i, 0] = ke
         acc[i, 1] = wi
         acc[i, 2] = wv
@@ -353,10 +406,11 @@ def _stretching_norms_rz(v, rc, hr, hz, Vs, nd, split):
 @njit(**KERNEL_OPTIONS)
 def _update_rows_rz(
     tag, prm, rc, hr, hz, Vs, mass, stress, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s, hoff, mf, cf,
-    max_sub, nlf, nonlocal_, nchunk, split, v, s2, st2, ch,
+    max_sub, nlf, nonlocal_, nchunk, split, v, s2, st2, ch, clevel, phase, cell_dt,
 ):  # fmt: skip
     """The rows ch, ch + nchunk, … of :func:`update_cells_rz` (its parallel loop's body as a function of its own,
     which compiles faster); returns their (stable Δt, flat index of the cell governing it)."""
+    dt0 = dt
     ncr, ncz = Vs.shape
     dbuf = np.empty(6)
     wbuf = np.empty(3)
@@ -366,12 +420,18 @@ def _update_rows_rz(
         r_c = rc[i]
         h_r = hr[i]
         for k in range(ncz):
+            lev = clevel[i, k]
+            if not level_active(lev, phase):
+                flags[i, k] = 0  # (the rules are counted once per update)
+                continue
+            dt = dt0 * (1 << lev)
             c = i * ncz + k
             h_z = hz[k]
             area = h_r * h_z
             vol = r_c * area
             vs = Vs[i, k]
             if vs < PHI_MIN * vol:
+                cell_dt[i, k] = np.inf
                 for d in range(6):
                     stress[i, k, d] = 0.0
                 q[i, k] = 0.0
@@ -407,6 +467,7 @@ def _update_rows_rz(
                 hg[i, k, d] = chg * qh[d] + sq / rho
             vmax = np.sqrt(L[0] ** 2 + L[3] ** 2 + L[4] ** 2) * le
             dtc = critical_step(le, cd, b1, b2, tr, vmax)
+            cell_dt[i, k] = dtc
             if dtc < best:
                 best = dtc
                 best_c = c
@@ -442,6 +503,9 @@ def update_cells_rz(
     nonlocal_,
     nchunk,
     split,
+    clevel,
+    phase,
+    cell_dt,
 ):
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (module
     docstring: D = (D_rr, D_θθ, D_zz, 0, D_rz, 0)Δt, W_13 Δt; the model given by ``tag``; in
@@ -452,9 +516,11 @@ def update_cells_rz(
     stress-free. ``state[..., hoff:hoff + 2]`` holds the hourglass generalised stresses (Pa). ``nchunk``: the
     rows are dealt round-robin to that many chunks of work (the field gives one per thread: each thread
     then takes every nchunk-th row, which balances them to within a row). ``split``: a node split in two
-    vertically (:func:`split_gradient_rz`).
+    vertically (:func:`split_gradient_rz`). Multi-rate: a cell of level L (``clevel``) is updated only in the
+    steps ``phase`` that are multiples of 2^L, over 2^L Δt (:func:`assign_levels_rz`); each updated cell's
+    stable step goes to ``cell_dt`` (s; inf for void).
 
-    Returns (stable Δt of the cells, flat index of the cell governing it), with the viscosity correction of
+    Returns (stable Δt of the updated cells, flat index of the cell governing it), with the viscosity correction of
     the explicit scheme as in 3D and L_e = :func:`characteristic_length_rz`."""
     ncr, ncz = Vs.shape
     n = ncr * ncz
@@ -469,7 +535,7 @@ def update_cells_rz(
     for ch in prange(nchunk):
         dts[ch], args[ch] = _update_rows_rz(
             tag, prm, rc, hr, hz, Vs, mass, stress, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s, hoff, mf,
-            cf, max_sub, nlf, nonlocal_, nchunk, split, v, s2, st2, np.int64(ch),
+            cf, max_sub, nlf, nonlocal_, nchunk, split, v, s2, st2, np.int64(ch), clevel, phase, cell_dt,
         )  # fmt: skip
     dt_min = np.inf
     arg = -1

@@ -25,6 +25,7 @@ from ..euler.axisym import (
     HOURGLASS_STATE_RZ,
     NO_SPLIT,
     advance_nodes_rz,
+    assign_levels_rz,
     characteristic_length_rz,
     node_mass_rz,
     nonlocal_factor_rz,
@@ -63,6 +64,13 @@ def _accumulate_rz(rr, rz, v, dt, u, wz):
             u[i, k, 1] = b
             c = max(c, abs(a) * rr[i], abs(b) * rz[k])
     return c
+
+
+def _trailing_zeros(phase: int, levels: int) -> int:
+    """The highest level whose cells update in the step ``phase`` of a multi-rate cycle of 2^``levels`` steps."""
+    if phase == 0:
+        return levels
+    return min((phase & -phase).bit_length() - 1, levels)
 
 
 @njit(**KERNEL_OPTIONS)
@@ -152,6 +160,18 @@ class AxisymmetricField(FieldBalances):
         self.remap_split = NO_SPLIT.copy()
         #: the contact's correction to the kinetic energy of the step (J/rad; the parts of a split node)
         self.kinetic_correction = 0.0
+        # multi-rate (settings.multirate_levels > 0; assign_levels_rz): each cell's last stable step (s; 0: not
+        # yet known, level 0), the cells' and nodes' levels of the cycle, and the cycle's clock (the step's
+        # place in it, the cycle's Δt); all levels 0 in a single-rate step
+        self.cell_dt = np.zeros(shape)
+        self.cell_level = np.zeros(shape, dtype=np.int8)
+        self.node_level = np.zeros(nshape, dtype=np.int8)
+        self.multirate_clock = np.zeros(2)
+        #: the nodes kept at level 0: the first ``level0_nodes[0]`` columns from the row ``level0_nodes[1]`` up (set by
+        #: the contact: the nodes it projects)
+        self.level0_nodes = np.zeros(2, dtype=np.int64)
+        # the columns of the non-local mean per level of the step (_multirate_cycle)
+        self._nonlocal_columns = np.full(max(self.settings.multirate_levels, 0) + 1, g.nr, dtype=np.int64)
 
     # --- initial state ------------------------------------------------------------------------------------------
     def fill_below(self, surface: float = 0.0) -> None:
@@ -232,6 +252,10 @@ class AxisymmetricField(FieldBalances):
         st = self.settings
         dt = self.dt if dt is None else dt
         contact = self.contact
+        levels = st.multirate_levels
+        phase = int(self.multirate_clock[0])
+        if levels > 0:
+            dt = self._multirate_cycle(dt, phase)
         t0 = perf_counter()
         if contact is not None:
             contact.before_nodes(dt)
@@ -239,23 +263,27 @@ class AxisymmetricField(FieldBalances):
         ke, dEi, dEv, dEh, wg, wx = advance_nodes_rz(
             self.hr, self.hz, self.rc, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass, self.v,
             self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
-            self.mass_tiny, self._force_factors,
+            self.mass_tiny, self._force_factors, self.cell_level, self.node_level, phase,
         )  # fmt: skip
         if contact is not None:
             contact.apply(dt)
         t1 = perf_counter()
         nonlocal_ = self._nonlocal_weights is not None
         if nonlocal_:
-            nonlocal_factor_rz(
-                self.v, self.rc, self.hr, self.hz, self.Vs, self._nonlocal_weights, self._nonlocal_scratch[0],
-                self._nonlocal_scratch[1:], self.nonlocal_factor, self.split,
-            )  # fmt: skip
+            self._nonlocal_factors(self._nonlocal_columns[_trailing_zeros(phase, levels)] if levels > 0 else None)
         dtc, arg = update_cells_rz(
             self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
             self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength, self._max_substep,
-            self.nonlocal_factor, nonlocal_, get_num_threads(), self.split,
+            self.nonlocal_factor, nonlocal_, get_num_threads(), self.split, self.cell_level, phase, self.cell_dt,
         )  # fmt: skip
+        cycle_end = True
+        if levels > 0:
+            phase += 1
+            cycle_end = phase == 1 << levels
+            self.multirate_clock[0] = 0 if cycle_end else phase
+            # the step after a cycle takes the smallest stable step of all cells; inside one, Δt holds
+            dtc, arg = self._multirate_dt() if cycle_end else (self.multirate_clock[1] / st.safety_factor, arg)
         if not (math.isfinite(ke) and math.isfinite(dEi)):
             raise InstabilityError(
                 f"axisymmetric step {self.step_count}: non-finite energy (Δt = {dt:.3g} s)",
@@ -265,7 +293,7 @@ class AxisymmetricField(FieldBalances):
         rc_ = st.remap_courant
         if rc_ < math.inf:
             deferred = rc_ > 0.0
-            if not deferred:
+            if not deferred and levels == 0:
                 self.u_remap[...] = 0.0
             courant = _accumulate_rz(
                 self._node_reciprocal[0], self._node_reciprocal[1], self.v, dt, self.u_remap, wz
@@ -284,7 +312,7 @@ class AxisymmetricField(FieldBalances):
                      "index": [i, k], "position_m": (float(self.grid.r[i]), float(self.grid.z[k]))},
                 )  # fmt: skip
             self.frame_offset += wz * dt
-            if not deferred or courant >= rc_:
+            if cycle_end and (not deferred or courant >= rc_):
                 if contact is not None:
                     contact.before_remap(self.u_remap)
                 self.remap(self.u_remap)
@@ -299,6 +327,54 @@ class AxisymmetricField(FieldBalances):
         tm["cells"] += t2 - t1
         tm["remap"] += t3 - t2
         tm["bookkeeping"] += t4 - t3
+
+    def _multirate_cycle(self, dt: float, phase: int) -> float:
+        """The Δt of a multi-rate step: at a cycle's start, ``dt`` (held for the cycle) and the levels from
+        the cells' last stable steps; inside the cycle, the cycle's Δt (a caller's ``dt`` must equal it)."""
+        clock = self.multirate_clock
+        if phase == 0:
+            clock[1] = dt
+            soil = self.Vs > PHI_MIN * self.volume
+            levels = self.settings.multirate_levels
+            assign_levels_rz(
+                self.settings.safety_factor * self.cell_dt, soil, dt, levels, self.level0_nodes, self.cell_level,
+                self.node_level,
+            )  # fmt: skip
+            if self._nonlocal_weights is not None:
+                # the columns the non-local mean needs in a step whose cells are up to each level: those of the
+                # updating cells and the reach of the outermost (all of them in the cycle's first step)
+                lo, w = self._nonlocal_weights[0]
+                nr = self.grid.nr
+                for lev in range(levels):
+                    cols = np.nonzero((soil & (self.cell_level <= lev)).any(axis=1))[0]
+                    last = int(cols[-1]) if cols.size else 0
+                    self._nonlocal_columns[lev] = min(nr, int(lo[last]) + w.shape[1])
+                self._nonlocal_columns[levels] = nr
+            return dt
+        if abs(dt - clock[1]) > 1e-9 * clock[1]:
+            raise ValueError(
+                f"multi-rate step {phase} of its cycle with Δt = {dt:.6g} s: the cycle's Δt is {clock[1]:.6g} s"
+            )
+        return float(clock[1])
+
+    def _nonlocal_factors(self, columns: int | None) -> None:
+        """The non-local factors of the cells of the first ``columns`` columns (None: all), which must include
+        the reach of every cell that updates in the step (:meth:`_multirate_cycle`): the mean of a cell takes
+        in the columns within its reach only, so its factor is the one over the whole grid."""
+        n = self.grid.nr if columns is None else columns
+        (lo, w), _, wz = self._nonlocal_weights
+        sc = self._nonlocal_scratch
+        nonlocal_factor_rz(
+            self.v[: n + 1], self.rc[:n], self.hr[:n], self.hz, self.Vs[:n], ((lo[:n], w[:n]), None, wz), sc[0][:n],
+            [a[:n] for a in sc[1:]], self.nonlocal_factor[:n], self.split,
+        )  # fmt: skip
+
+    def _multirate_dt(self) -> tuple[float, int]:
+        """The smallest stable step of the soil cells at a cycle's end (s) and the cell it belongs to."""
+        soil = self.Vs > PHI_MIN * self.volume
+        dtc = np.where(soil & (self.cell_dt > 0.0), self.cell_dt, np.inf)
+        arg = int(np.argmin(dtc))
+        return float(dtc.ravel()[arg]), arg
 
     def remap(self, displacement: np.ndarray) -> None:
         """Remap with the mesh motion ``displacement`` (m, then reset); e is recomputed from the density."""

@@ -38,6 +38,8 @@ __all__ = ["AxisymmetricBackend", "Backend", "CartesianBackend", "NestedBackend"
 
 #: arrays of the soil field saved in a checkpoint (both fields have them)
 STATE_ARRAYS = ("Vs", "Vcur", "mass", "stress", "state", "q", "hg", "v", "nmass", "modulus", "u_remap")
+#: the r–z field's multi-rate arrays a checkpoint keeps as well (``[solver] multirate_levels`` > 0)
+MULTIRATE_ARRAYS = ("cell_dt", "cell_level", "node_level", "multirate_clock")
 
 
 def _layers(scenario: Scenario) -> list[tuple[float, float]]:
@@ -518,6 +520,12 @@ class AxisymmetricBackend(Backend):
 
     def soil_cells(self) -> int:
         return int(self.field.grid.n_cells)
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        out = super().state_arrays()
+        if self.field.settings.multirate_levels > 0:  # (a cycle's levels and clock: a checkpoint may fall inside one)
+            out.update({name: getattr(self.field, name) for name in MULTIRATE_ARRAYS})
+        return out
 
     def cell_position(self, index: int) -> tuple[float, ...] | None:
         if index < 0:

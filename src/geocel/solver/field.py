@@ -170,6 +170,8 @@ class SolverSettings:
     #: largest strain of one explicit substep of the soil model, as a fraction of its strain scale
     #: (hypoplastic: R); see :meth:`geocel.config.materials._Material.substep_strain`
     soil_substep: float = 0.1
+    #: multi-rate levels of the r–z step (cells and nodes advance every 1, 2, … 2^levels steps); 0: single rate
+    multirate_levels: int = 0
 
 
 class FieldBalances:

@@ -93,7 +93,7 @@ def solver_settings(scenario: Scenario, **override) -> SolverSettings:
     s = scenario.solver
     keys = (
         "safety_factor", "hourglass", "hourglass_stiffness", "bulk_viscosity_linear",
-        "bulk_viscosity_quadratic", "gravity", "remap_courant", "soil_substep",
+        "bulk_viscosity_quadratic", "gravity", "remap_courant", "soil_substep", "multirate_levels",
     )  # fmt: skip
     return SolverSettings(**({k: getattr(s, k) for k in keys} | override))
 
