@@ -16,12 +16,10 @@ from geocel.config.scenario import ScenarioError, scenario_from_dict
 from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
 from geocel.euler.axisym import assign_levels_rz
 from geocel.grid.axisym import AxisymmetricGrid
-from geocel.io.history import read_history
 from geocel.solver.axisym_field import AxisymmetricField
 from geocel.solver.field import SolverSettings
-from geocel.solver.simulation import Simulation
 from test_axisymmetric_scenario import scenario_dict
-from test_pile_frame import E0, SAND, A, _curve, _field
+from test_pile_frame import E0, SAND, A, _curve, _field, run_in_two_parts
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -132,18 +130,8 @@ def test_a_restart_inside_a_cycle_continues_it_exactly(tmp_path):
     """Stopped after 37 steps (5 steps into a cycle of 8) and restarted: the same history as in one go."""
     d = scenario_dict(frame="pile", void_height=0.25)
     d["solver"] = {"multirate_levels": 3}
-    sc = scenario_from_dict(d)
-    whole = Simulation(sc, out=tmp_path / "whole", progress=False, write_fields=False)
-    whole.run()
-    part = Simulation(sc, out=tmp_path / "part", progress=False, write_fields=False)
-    assert part.run(stop_after_steps=37)["status"] == "interrupted"
+    _, part, _ = run_in_two_parts(tmp_path, d)
     assert part.field.multirate_clock[0] == 5
-    again = Simulation(sc, out=tmp_path / "part", progress=False, write_fields=False)
-    assert again.run(restart=True)["status"] == "finished"
-    a = read_history(tmp_path / "whole" / "history.csv").drop(columns="wall_time")
-    b = read_history(tmp_path / "part" / "history.csv").drop(columns="wall_time")
-    assert len(a) == len(b) > 3
-    np.testing.assert_array_equal(a.to_numpy(), b.to_numpy())
 
 
 def test_multirate_levels_are_an_option_of_the_axisymmetric_mode():

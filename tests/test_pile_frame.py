@@ -216,19 +216,26 @@ def test_restart_in_the_pile_frame_gives_the_same_history(tmp_path, rim):
     split corner node's parts exactly: the same history as the run in one go."""
     d = scenario_dict(frame="pile", void_height=0.25)
     d["contact"] = {"rim": rim}
+    whole, _, again = run_in_two_parts(tmp_path, d)
+    assert again.field.frame_offset == whole.field.frame_offset
+    assert again.field.inflow_mass == whole.field.inflow_mass
+
+
+def run_in_two_parts(tmp_path, d: dict, stop_after: int = 37) -> tuple[Simulation, Simulation, Simulation]:
+    """The scenario ``d`` run in one go, and stopped after ``stop_after`` steps and restarted from its checkpoint:
+    asserts the same history; returns the three simulations (whole, part, again)."""
     sc = scenario_from_dict(d)
     whole = Simulation(sc, out=tmp_path / "whole", progress=False, write_fields=False)
     whole.run()
     part = Simulation(sc, out=tmp_path / "part", progress=False, write_fields=False)
-    assert part.run(stop_after_steps=37)["status"] == "interrupted"
+    assert part.run(stop_after_steps=stop_after)["status"] == "interrupted"
     again = Simulation(sc, out=tmp_path / "part", progress=False, write_fields=False)
     assert again.run(restart=True)["status"] == "finished"
     a = read_history(tmp_path / "whole" / "history.csv").drop(columns="wall_time")
     b = read_history(tmp_path / "part" / "history.csv").drop(columns="wall_time")
     assert len(a) == len(b) > 3
     np.testing.assert_array_equal(a.to_numpy(), b.to_numpy())
-    assert again.field.frame_offset == whole.field.frame_offset
-    assert again.field.inflow_mass == whole.field.inflow_mass
+    return whole, part, again
 
 
 def test_rim_treatment_is_a_scenario_key_of_the_axisymmetric_mode():
