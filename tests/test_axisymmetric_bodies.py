@@ -226,3 +226,28 @@ def test_the_rings_of_a_solid_pile_go_to_paraview(tmp_path):
     names = re.findall(r'Name="(\w+)"', head)
     assert {"stress_rr", "stress_tt", "stress_zz", "stress_rz", "displacement", "velocity"} <= set(names)
     assert sim.backend.pile.body.stress[..., 2].mean() < 0.0
+
+
+def test_in_the_piles_frame_the_shaft_load_goes_to_the_levels_where_it_acts(tmp_path):
+    """The coupled pile jacked 0.3 m in the pile's frame (the grid moved down 0.3 m with it): the shaft's forces
+    are shared linearly between the two levels around each node's laboratory elevation, so their first moment
+    over the levels equals that over the nodes (linear sharing keeps it), and no level above the soil gets any.
+    (They went to the levels 0.3 m higher, the grid's offset, before: moment at +0.004 m instead of −0.30 m.)"""
+    d = _scenario("coupled", penetration=0.3)
+    d["domain"].update(frame="pile", void_height=0.6)
+    sim = Simulation(scenario_from_dict(d), out=tmp_path / "c", progress=False, write_fields=False)
+    sim.run()
+    c, f = sim.contact, sim.field
+    assert f.frame_offset < -0.29
+    s, load = sim.pile.surface(), sim.pile.load
+    z_rows = f.grid.z + f.frame_offset
+    ft = c.shaft_friction
+    assert np.abs(ft).sum() > 0.0
+    moment_nodes = float((z_rows * ft).sum() / ft.sum())
+    moment_levels = float((s.layer_z * load.layer[:, 0]).sum() / load.layer[:, 0].sum())
+    # (within the grid's motion in the last step, 5e-5 m: the load was shared before the frame moved on)
+    assert moment_levels == pytest.approx(moment_nodes, abs=1e-3)
+    assert s.z_apex < moment_levels < 0.0
+    top = s.layer_z[s.layer_z >= z_rows[ft != 0.0].max() - 1e-9].min()  # the level above the highest node
+    above = s.layer_z > top + 1e-9
+    assert (load.layer[above, 0] == 0.0).all() and above.any()

@@ -708,7 +708,7 @@ class AxisymmetricPileContact:
             vs = self._vs
             vs.fill(vp)
         else:  # (clamped to the end levels beyond them, as in 3D)
-            vs = np.interp(f.grid.z, s.layer_z, s.layer_v[:, 2])
+            vs = np.interp(self._row_elevations(), s.layer_z, s.layer_v[:, 2])
         t_edge = -1.0
         if self.base == "edge" and kc + 1 <= f.grid.nz:
             t_edge = min(max((s.z_apex - f.frame_offset - self._z_nodes[kc]) / f.hz[kc], 0.0), 1.0)
@@ -752,13 +752,20 @@ class AxisymmetricPileContact:
         self.soil_work += w[4]
         self.friction_work += out[4] * dt - w[4]
 
+    def _row_elevations(self) -> np.ndarray:
+        """The node rows' elevations in the laboratory (m), as the pile's levels are given: in the pile's frame
+        the grid's own coordinates are offset by its motion (a shaft node's force went to the level that far
+        above it before)."""
+        f = self.field
+        return f.grid.z + f.frame_offset
+
     def _level_load(self, s: Surface, kc: int, v_trial: np.ndarray, dt: float) -> ContactLoad:
         """The step's forces per level of the pile (the 3D contact's :class:`ContactLoad`, modelled part):
         every shaft node's shared linearly between the two levels around its elevation, the base's on the
         lowest level; the tied soil mass: a shaft node that sticks (|f_t| < μ f_n), a base or interior node
         whose vertical velocity the base changed."""
         f = self.field
-        z = f.grid.z
+        z = self._row_elevations()
         lz = s.layer_z
         nl = lz.shape[0]
         scale = 2.0 * math.pi / self.pile.symmetry_factor

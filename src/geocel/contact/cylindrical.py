@@ -415,7 +415,7 @@ class CylindricalPileContact(AxisymmetricPileContact):
             vs = self._vs
             vs.fill(vp)
         else:
-            vs = np.interp(f.grid.z, s.layer_z, s.layer_v[:, 2])
+            vs = np.interp(self._row_elevations(), s.layer_z, s.layer_v[:, 2])
         w = self._work
         worst, stray, fsum = contact_step_cyl(
             ia, kc, f._force_factors, f.grid.ties, f.mass, f.nmass, f.v, f.fix, f.mass_tiny, f.gravity, vp, vs, self.mu,
@@ -463,7 +463,7 @@ class CylindricalPileContact(AxisymmetricPileContact):
         """As :meth:`AxisymmetricPileContact._level_load`, with the ring's forces and masses summed over the
         node lines."""
         f = self.field
-        z = f.grid.z
+        z = self._row_elevations()
         lz = s.layer_z
         nl = lz.shape[0]
         scale = self.sector_scale / self.pile.symmetry_factor
