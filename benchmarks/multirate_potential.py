@@ -6,10 +6,12 @@ Reads ``RUN_DIR/config.toml`` and ``RUN_DIR/checkpoint.npz`` of an axisymmetric 
 and puts every soil cell on the level L = ⌊log₂(Δt_cell / Δt_min)⌋ (at most ``--max-level``), with Δt_cell =
 L_e / √(M/ρ) from its stored P-wave modulus, as in the step's own bound. A multi-rate step that advanced the
 cells of level L every 2^L fine steps would do Σ n_L / 2^L of the single-rate step's cell updates: printed per
-level and, on the last line, as ``cell_work_fraction=<number>``. This is an upper bound of the saving: nodes and
-the remap would have to follow the same levels (a cell's stress held for 2^L node steps is not enough — a
-restoring force sampled and held for N ≥ 2 steps of the central difference feeds energy into any oscillation,
-whatever N ω Δt), and a level's interfaces cost extra work.
+level and, on the last line, as ``cell_work_fraction=<number>``. This is an upper bound of the saving of the
+multi-rate step (``[solver] multirate_levels``): there the nodes follow the same levels (a cell's stress held for
+2^L node steps is not enough — a restoring force sampled and held for N ≥ 2 steps of the central difference feeds
+energy into any oscillation, whatever N ω Δt), a node takes the smallest level of its cells and a cell that of its
+nodes, and the contact's nodes stay on level 0 (measured at 3 m, 12 cells per radius: 0.295 against the 0.273
+printed here).
 """
 
 from __future__ import annotations

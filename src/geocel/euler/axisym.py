@@ -164,10 +164,10 @@ def assign_levels_rz(cell_dt, soil, dt, max_level, level0_nodes, clevel, nlevel)
     powers of two, the nodal partition of Belytschko, Yen & Mullen 1979): a soil cell may advance over 2^L Δt
     while that is within its own stable step ``cell_dt`` (s, the safety factor applied; 0 or inf for a cell
     not updated yet: level 0); a node takes the smallest level of its soil cells (``max_level`` without
-    any), the nodes of the first ``level0_nodes[0]`` columns from the row ``level0_nodes[1]`` up (those the pile's
-    contact projects) level 0, and every cell the
-    smallest level of its four nodes. So a node advances only when all its cells have reached its time, and
-    no cell or node steps beyond its own stable step. Serial: once per cycle."""
+    any), the nodes of the first ``level0_nodes[0]`` columns from the row ``level0_nodes[1]`` up (those the
+    pile's contact projects) level 0, and every cell the smallest level of its four nodes. So a node advances
+    only when all its cells have reached its time, and no cell or node steps beyond its own stable step.
+    Serial: once per cycle."""
     ncr, ncz = cell_dt.shape
     for i in range(ncr + 1):
         for k in range(ncz + 1):

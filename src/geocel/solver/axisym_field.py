@@ -248,7 +248,9 @@ class AxisymmetricField(FieldBalances):
     # --- the explicit step ----------------------------------------------------------------------------------
     def step(self, dt: float | None = None) -> None:
         """One explicit step: Lagrangian phase, then the remap when the accumulated node displacements reach
-        ``remap_courant`` of a cell (every step with 0, never with ``np.inf``)."""
+        ``remap_courant`` of a cell (every step with 0, never with ``np.inf``). With multi-rate levels
+        (``settings.multirate_levels``) one step of a cycle: only the cells and nodes whose level is due advance
+        (:func:`geocel.euler.axisym.assign_levels_rz`), and the remap waits for the cycle's end."""
         st = self.settings
         dt = self.dt if dt is None else dt
         contact = self.contact
@@ -353,7 +355,9 @@ class AxisymmetricField(FieldBalances):
             return dt
         if abs(dt - clock[1]) > 1e-9 * clock[1]:
             raise ValueError(
-                f"multi-rate step {phase} of its cycle with Δt = {dt:.6g} s: the cycle's Δt is {clock[1]:.6g} s"
+                f"multi-rate step {phase} of its cycle with Δt = {dt:.6g} s: the cycle's Δt is {clock[1]:.6g} s (a "
+                "pile body whose own stable step governs and changes; set [solver] pile_subcycling = true or "
+                "multirate_levels = 0)"
             )
         return float(clock[1])
 
