@@ -619,9 +619,7 @@ class Scenario(_Table):
             self._check_void_ratios()
         if self.domain.frame == "pile" and self.pile is None:
             raise _invalid(("domain", "frame"), "pile", "the pile's frame needs a [pile]")
-        if self.solver.multirate_levels > 0 and (
-            self.domain.symmetry != "axisymmetric" or self.domain.layout == "cylindrical"
-        ):
+        if self.solver.multirate_levels > 0 and self.domain.symmetry != "axisymmetric":  # (cylindrical: a 3D one)
             raise _invalid(
                 ("solver", "multirate_levels"), self.solver.multirate_levels, 'an option of symmetry = "axisymmetric"'
             )
