@@ -187,6 +187,21 @@ def test_update_cells_equals_update_point_and_counts_rules():
     assert np.all(M > 0)
 
 
+def test_the_rule_tally_counts_each_bit_as_the_per_rule_count():
+    """The step loop's one-pass tally (:func:`geocel.materials.flags.tally`) against the count per rule, on
+    flags with several rules per cell; the rules' bits are 1, 2, 4, … in the order of ``NAMES``."""
+    assert list(fl.NAMES) == [1 << b for b in range(len(fl.NAMES))]
+    rng = np.random.default_rng(8)
+    flags = rng.integers(0, 1 << len(fl.NAMES), size=3000) * (rng.random(3000) < 0.3)
+    out = np.zeros(len(fl.NAMES), dtype=np.int64)
+    fl.tally(flags, out)
+    fl.tally(flags[:100], out)
+    expected = fl.count(flags)
+    extra = fl.count(flags[:100])
+    assert dict(zip(fl.NAMES.values(), out.tolist(), strict=True)) == {k: v + extra[k] for k, v in expected.items()}
+    assert min(expected.values()) > 0
+
+
 def test_large_increment_is_substepped_in_the_field_kernel():
     """ceil(‖Δε‖/max_substep_strain) Euler substeps converge to the adaptive result."""
     mat = Hypoplastic.fraction_e()

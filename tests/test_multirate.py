@@ -14,7 +14,7 @@ import pytest
 from geocel.config.materials import Hypoplastic
 from geocel.config.scenario import ScenarioError, scenario_from_dict
 from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
-from geocel.euler.axisym import assign_levels_rz
+from geocel.euler.axisym import assign_levels_rz, nonlocal_factor_rz
 from geocel.grid.axisym import AxisymmetricGrid
 from geocel.solver.axisym_field import AxisymmetricField
 from geocel.solver.field import SolverSettings
@@ -148,10 +148,11 @@ def test_multirate_levels_are_an_option_of_the_axisymmetric_mode():
         scenario_from_dict(d)
 
 
-def test_the_non_local_factor_of_the_first_columns_is_the_whole_grids():
+def test_the_non_local_factor_of_the_first_columns_and_the_due_cells_is_the_whole_grids():
     """The step of a cycle in which only the cells near the axis update computes the non-local factors on the
-    first columns only (those cells' and their reach, l = 0.1 m on 0.05 m cells, graded beyond 0.5 m): for
-    every cell whose reach lies inside those columns the factor equals the whole grid's to round-off."""
+    first columns only (those cells' and their reach, l = 0.1 m on 0.05 m cells, graded beyond 0.5 m), and in
+    the cells due in the step only: for every cell whose reach lies inside those columns, and every due cell,
+    the factor equals the whole grid's to round-off; the others are left as they were."""
     g = AxisymmetricGrid.graded(radius=3.0, soil_depth=2.0, void_height=0.3, fine_size=0.05, fine_radius=0.5,
                                 fine_depth=1.0, growth=1.3, max_size=0.5)  # fmt: skip
     f = AxisymmetricField(g, Hypoplastic.fraction_e().model_copy(update={"nonlocal_length": 0.1}),
@@ -159,14 +160,25 @@ def test_the_non_local_factor_of_the_first_columns_is_the_whole_grids():
     f.fill_below(0.0)
     f.geostatic([(0.0, 0.62)], k0=0.5)
     f.v[...] = np.random.default_rng(5).normal(size=f.v.shape)
-    f._nonlocal_factors(None)
-    whole = f.nonlocal_factor.copy()
+
+    def factors(columns=None, due=None):
+        f.nonlocal_factor[...] = -1.0
+        nonlocal_factor_rz(f.v, f.rc, f.hr, f.hz, f.Vs, f._nonlocal_weights, f._nonlocal_scratch[0],
+                           f._nonlocal_scratch[1:], f.nonlocal_factor, f.split, columns, due)  # fmt: skip
+        return f.nonlocal_factor.copy()
+
+    whole = factors()
     lo, w = f._nonlocal_weights[0]
     for cells in (1, 6, 12):
         columns = int(lo[cells - 1]) + w.shape[1]
         assert columns < g.nr
-        f.nonlocal_factor[...] = -1.0
-        f._nonlocal_factors(columns)
-        np.testing.assert_allclose(f.nonlocal_factor[:cells], whole[:cells], rtol=1e-13)
-        assert (f.nonlocal_factor[columns:] == -1.0).all()
+        part = factors(columns)
+        np.testing.assert_allclose(part[:cells], whole[:cells], rtol=1e-13)
+        assert (part[columns:] == -1.0).all()
+    level = np.random.default_rng(6).integers(0, 3, size=g.shape).astype(np.int8)
+    for phase in (1, 2, 3):
+        due = (phase & ((1 << level) - 1)) == 0
+        part = factors(due=(level, phase))
+        np.testing.assert_allclose(part[due], whole[due], rtol=1e-13)
+        assert (part[~due] == -1.0).all() and due.any() and not due.all()
     assert (whole[f.Vs > 0] > 1.0).any()

@@ -115,6 +115,35 @@ def test_a_band_keeps_its_own_term_and_the_soil_beside_it_gets_more():
     assert np.all(out >= 1.0)
 
 
+def test_the_r_z_kernel_sums_as_the_general_separable_mean():
+    """The r–z mean and factor run in one kernel of their own; on a graded grid with void, a partly filled row
+    and a random velocity field they equal the general n-dimensional mean of :mod:`geocel.euler.nonlocal_mean`
+    (whose closed-form checks are in this file) on the grid as (n_r, 1, n_z), ‖D‖ from the velocity gradient."""
+    from geocel.euler.axisym import velocity_gradient_rz
+
+    g = AxisymmetricGrid.graded(radius=1.5, soil_depth=1.0, void_height=0.3, fine_size=0.03, fine_radius=0.4,
+                                fine_depth=0.5, growth=1.25, max_size=0.2)  # fmt: skip
+    Vs = g.cell_volumes() * np.clip((0.05 - g.z[:-1]) / g.hz, 0.0, 1.0)[None, :]
+    Vs[2:5, -9:] = 0.0
+    v = np.random.default_rng(3).normal(size=(g.nr + 1, g.nz + 1, 2))
+    w = nonlocal_weights_rz(g.rc, g.zc, 0.1)
+    soil = Vs > 0.0
+    nd = np.zeros(g.shape)
+    for i, k in zip(*np.nonzero(soil), strict=True):
+        L, _ = velocity_gradient_rz(v, i, k, g.hr[i], g.hz[k], g.rc[i])
+        nd[i, k] = math.sqrt(L[0] ** 2 + L[3] ** 2 + L[4] ** 2 + 0.5 * (L[1] + L[2]) ** 2)
+    s3 = (g.nr, 1, g.nz)
+    general = np.empty(g.shape)
+    nonlocal_mean(Vs.reshape(s3), nd.reshape(s3), w, [np.empty(s3) for _ in range(4)], general.reshape(s3))
+    np.testing.assert_allclose(_mean(g, Vs, 0.1, nd), general, rtol=1e-12, atol=0.0)
+    out, nd_k = np.empty(g.shape), np.empty(g.shape)
+    nonlocal_factor_rz(v, g.rc, g.hr, g.hz, Vs, w, nd_k, [np.empty(g.shape) for _ in range(4)], out)
+    np.testing.assert_allclose(nd_k, nd, rtol=1e-12)
+    expected = np.where(soil, np.clip(general / np.where(soil, nd, 1.0), 1.0, None), 1.0)
+    np.testing.assert_allclose(out, expected, rtol=1e-12)
+    assert (out[soil] > 1.0).mean() > 0.3  # (a field whose factor is not 1 everywhere)
+
+
 def _drained_triaxial(lam: float, strain: float, de: float = 1e-4, sr: float = 1e5, bounded: bool = True):
     """Drained triaxial compression (σ_r = −sr held by solving for the radial strain of each increment) of the
     paper's sand from e = 0.6 with the non-local factor λ held fixed; returns (e after every increment, p at the

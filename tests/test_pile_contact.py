@@ -259,6 +259,12 @@ def test_pile_scenarios_run_and_write_q_b_q_s_and_the_governing_element(tmp_path
     # pile is never subcycled, so its beam governs
     gov = {"rigid": "soil", "solid": "soil", "coupled": "pile (coupled)"}[kind]
     assert s["dt_governing_body"] == gov
+    el = s["dt_governing_element"]  # (a soil cell with its position inside the container, found for the summary)
+    if gov == "soil":
+        x, y, z = el["position_m"]
+        assert 0.0 < x < 0.6 and 0.0 < y < 0.6 and -0.8 < z < 0.2
+    else:
+        assert "position_m" not in el
     if kind == "solid":
         assert s["pile_dt"] < s["dt_last"] and s["pile_substeps"] >= 2
         assert s["pile_steps"] >= s["steps"] * 2

@@ -146,6 +146,7 @@ class CoupledPile:
         np.add.at(self.beam.mass[:, 5], self.layer, m * (r[:, 0] ** 2 + r[:, 1] ** 2))
         self.fixed = symmetry_fixed_dofs(self.symmetry, self.beam.n_nodes)
         self._F = np.zeros((self.beam.n_nodes, 6))
+        self._dt: tuple[float, str, int] | None = None  # (stable_time_step)
 
     # --- state ------------------------------------------------------------------------------------------
     @property
@@ -160,12 +161,15 @@ class CoupledPile:
         cross-sections, so the element only sees the beam's modes (axial, bending, shear, torsion), where
         the dummy adds its small stiffness (E_dummy A_vol / (E A) ≈ 5·10⁻⁴ of the steel's) to the beam.
         Their element-by-element estimate (what a general-purpose code reports) is therefore not a
-        limit; the stable step is the beam's, reduced for that added stiffness."""
-        dtb, eb = self.beam.stable_time_step()
-        added = (self.volume.E * self.volume.volume0.sum()) / (
-            self.section.E * self.section.area * float(np.ptp(self.beam.z))
-        )
-        return dtb / np.sqrt(1.0 + added), "beam", eb
+        limit; the stable step is the beam's, reduced for that added stiffness. (Fixed by the mesh and the
+        materials: found once.)"""
+        if self._dt is None:
+            dtb, eb = self.beam.stable_time_step()
+            added = (self.volume.E * self.volume.volume0.sum()) / (
+                self.section.E * self.section.area * float(np.ptp(self.beam.z))
+            )
+            self._dt = (float(dtb / np.sqrt(1.0 + added)), "beam", eb)
+        return self._dt
 
     def volume_element_time_step(self) -> tuple[float, int]:
         """Element-by-element estimate of the dummy layer alone (for comparison, see above)."""

@@ -487,6 +487,48 @@ def contact_step_rz(
     return worst, stray, fsum
 
 
+@njit(**KERNEL_OPTIONS)
+def share_on_levels(z, lz, rows, out):
+    """out[l] += the values ``rows[j]`` (one row per node row at elevation ``z[j]``) shared linearly between the
+    two levels of elevations ``lz`` (ascending) around z[j]; beyond the end levels, all on the end level."""
+    nl = lz.shape[0]
+    for j in range(z.shape[0]):
+        lo = 0
+        w = 0.0
+        if nl > 1:
+            lo = min(max(np.searchsorted(lz, z[j], side="right") - 1, 0), nl - 2)
+            w = min(max((z[j] - lz[lo]) / (lz[lo + 1] - lz[lo]), 0.0), 1.0)
+        hi = min(lo + 1, nl - 1)
+        for c in range(rows.shape[1]):
+            out[lo, c] += (1.0 - w) * rows[j, c]
+            out[hi, c] += w * rows[j, c]
+
+
+@njit(**KERNEL_OPTIONS)
+def stuck_mass(fn, ft, mu, fixed_z, nmass, corner_row, corner_mass, out):
+    """``out[j]`` = the node mass of a shaft node that sticks (|f_t| < μ f_n, pressed, not fixed vertically),
+    else 0: the soil mass the friction tied to the pile's vertical motion; in row ``corner_row`` (≥ 0, rim
+    "corner") the mass ``corner_mass`` instead of the node's."""
+    for j in range(fn.shape[0]):
+        stick = fn[j] > 0.0 and abs(ft[j]) < mu * fn[j] * (1.0 - 1e-12) and not fixed_z[j]
+        out[j] = (corner_mass if j == corner_row else nmass[j]) if stick else 0.0
+
+
+@njit(**KERNEL_OPTIONS)
+def moved_mass_rz(v, v_trial, nmass, ia, kc, rim_base):
+    """The mass of the base's and the interior nodes (i < i_a, rows ≥ kc) whose vertical velocity the base's
+    projection changed (``v_trial``: from row kc up), and of the rim node i_a in the base's row if the base acts
+    on it (``rim_base``)."""
+    total = 0.0
+    for i in range(ia + 1):
+        for k in range(kc, v.shape[1]):
+            if i == ia and (k > kc or not rim_base):
+                continue
+            if v[i, k, 1] != v_trial[i, k - kc, 1]:
+                total += nmass[i, k]
+    return total
+
+
 class AxisymmetricPileContact:
     """Contact of a pile with an :class:`~geocel.solver.axisym_field.AxisymmetricField` (module docstring).
     Setting it up attaches it to the field (``field.contact``), whose step then calls :meth:`before_nodes`,
@@ -546,6 +588,9 @@ class AxisymmetricPileContact:
         self.shaft_friction = np.zeros(nz1)
         self._out = np.zeros(6)
         self._work = np.zeros(5)
+        #: the whole pile's forces per force of the model (per radian in r–z)
+        self.extent_scale = 2.0 * math.pi
+        self._rows = np.zeros((nz1, 3))  # per node row: shaft friction, −normal force, stuck mass (_level_load)
         # the nodes of the columns 0..ia before the nodal pass and after it (trial), reused every step
         self._v_old = np.zeros((ia + 1, nz1, 2))
         self._v_trial = np.zeros((ia + 1, nz1, 2))
@@ -765,35 +810,30 @@ class AxisymmetricPileContact:
         lowest level; the tied soil mass: a shaft node that sticks (|f_t| < μ f_n), a base or interior node
         whose vertical velocity the base changed."""
         f = self.field
-        z = self._row_elevations()
-        lz = s.layer_z
-        nl = lz.shape[0]
-        scale = 2.0 * math.pi / self.pile.symmetry_factor
-        if nl == 1:
-            lo = np.zeros(z.shape[0], dtype=np.int64)
-            w = np.zeros(z.shape[0])
-        else:
-            lo = np.clip(np.searchsorted(lz, z, "right") - 1, 0, nl - 2)
-            w = np.clip((z - lz[lo]) / (lz[lo + 1] - lz[lo]), 0.0, 1.0)
-        hi = np.minimum(lo + 1, nl - 1)
-        fn, ft = self.shaft_normal, self.shaft_friction
         ia = self.ia
-        stick = (fn > 0.0) & (np.abs(ft) < self.mu * fn * (1.0 - 1e-12)) & ~f.fix[ia, :, 1]
-        m_shaft = np.where(stick, f.nmass[ia], 0.0)
-        if self.rim == "corner" and stick[kc]:  # (the outer half only)
-            m_shaft[kc] = 0.25 * (f.mass[ia, kc - 1] + f.mass[ia, kc])
-        layer = np.zeros((nl, 4))
-        tied = np.zeros((nl, 2))
-        for col, val in ((0, ft), (1, -fn)):
-            layer[:, col] = np.bincount(lo, (1.0 - w) * val, nl) + np.bincount(hi, w * val, nl)
-        tied[:, 0] = np.bincount(lo, (1.0 - w) * m_shaft, nl) + np.bincount(hi, w * m_shaft, nl)
+        rows = self._rows
+        rows[:, 0] = self.shaft_friction
+        rows[:, 1] = -self.shaft_normal
+        corner = (kc, 0.25 * (f.mass[ia, kc - 1] + f.mass[ia, kc])) if self.rim == "corner" else (-1, 0.0)  # (outer half)
+        stuck_mass(self.shaft_normal, self.shaft_friction, self.mu, f.fix[ia, :, 1], f.nmass[ia], *corner, rows[:, 2])
+        return self._load_on_levels(s, rows, moved_mass_rz(f.v, v_trial, f.nmass, ia, kc, self.rim != "shaft"), dt)
+
+    def _load_on_levels(self, s: Surface, rows: np.ndarray, moved: float, dt: float) -> ContactLoad:
+        """:class:`ContactLoad` from the node rows' shaft friction, shaft normal force (negative) and stuck mass
+        ``rows`` (n_z + 1, 3), shared between the pile's levels, the base's force on the lowest level and the
+        soil mass ``moved`` that the base tied to it."""
+        nl = s.layer_z.shape[0]
+        shares = np.zeros((nl, 3))
+        share_on_levels(self._row_elevations(), s.layer_z, rows, shares)
+        scale = self.extent_scale / self.pile.symmetry_factor
         out = self._out
+        layer = np.zeros((nl, 4))
+        layer[:, :2] = shares[:, :2]
         layer[0, 2] = out[1]
         layer[0, 3] = out[0]
-        # base and interior nodes (i < i_a, and the rim node when the base acts on it) the base moved
-        moved = f.v[: ia + 1, kc:, 1] != v_trial[:, :, 1]
-        moved[ia, 1 if self.rim != "shaft" else 0 :] = False
-        tied[0, 1] = float(f.nmass[: ia + 1, kc:][moved].sum())
+        tied = np.zeros((nl, 2))
+        tied[:, 0] = shares[:, 2]
+        tied[0, 1] = moved
         base = np.array([0.0, 0.0, out[1]])
         shaft = np.array([0.0, 0.0, out[3]])
         return ContactLoad(scale * layer, scale * base, scale * shaft, scale * tied, dt)

@@ -355,7 +355,7 @@ class CylindricalPileContact(AxisymmetricPileContact):
         field.contact = self
         nt1, nz1 = g.ntheta + 1, g.nz + 1
         #: the whole pile's forces per force of the modelled sector
-        self.sector_scale = 2.0 * math.pi / g.angle
+        self.extent_scale = 2.0 * math.pi / g.angle
         #: per shaft node (line j, row k), the last step's normal and vertical friction force on the pile (N,
         #: the sector's)
         self.line_normal = np.zeros((nt1, nz1))
@@ -380,11 +380,11 @@ class CylindricalPileContact(AxisymmetricPileContact):
         f = self.field
         before = float(f.Vs.sum())
         super().wish_in_place()
-        return self.sector_scale * (before - float(f.Vs.sum())) / (2.0 * math.pi)
+        return self.extent_scale * (before - float(f.Vs.sum())) / (2.0 * math.pi)
 
     def soil_inside(self) -> float:
         """Soil volume inside the pile (m³, the whole body), with the pile where it was at the last remap."""
-        return super().soil_inside() / (2.0 * math.pi) * self.sector_scale
+        return super().soil_inside() / (2.0 * math.pi) * self.extent_scale
 
     # --- the step -----------------------------------------------------------------------------------------
     def before_nodes(self, dt: float | None = None) -> None:
@@ -428,7 +428,7 @@ class CylindricalPileContact(AxisymmetricPileContact):
                 raise RuntimeError(f"shaft friction exceeds μ × normal force by {worst:.3g} (relative)")
         elif stray:
             raise RuntimeError("shaft friction without a normal force")
-        sc = self.sector_scale
+        sc = self.extent_scale
         self.base_force[:] = sc * out[0], sc * out[1]
         self.shaft_force[:] = sc * fsum, sc * out[3]
         # per node row, the ring's forces as r–z's per radian (the sector's sum / Θ): shaft_pressure, the level load
@@ -463,17 +463,6 @@ class CylindricalPileContact(AxisymmetricPileContact):
         """As :meth:`AxisymmetricPileContact._level_load`, with the ring's forces and masses summed over the
         node lines."""
         f = self.field
-        z = self._row_elevations()
-        lz = s.layer_z
-        nl = lz.shape[0]
-        scale = self.sector_scale / self.pile.symmetry_factor
-        if nl == 1:
-            lo = np.zeros(z.shape[0], dtype=np.int64)
-            wt = np.zeros(z.shape[0])
-        else:
-            lo = np.clip(np.searchsorted(lz, z, "right") - 1, 0, nl - 2)
-            wt = np.clip((z - lz[lo]) / (lz[lo + 1] - lz[lo]), 0.0, 1.0)
-        hi = np.minimum(lo + 1, nl - 1)
         fn, ft = self.line_normal, self.line_friction
         ia = self.ia
         stick = (fn > 0.0) & (np.abs(ft) < self.mu * fn * (1.0 - 1e-12)) & ~f.fix[ia, :, :, 2].astype(bool)
@@ -484,22 +473,11 @@ class CylindricalPileContact(AxisymmetricPileContact):
             m_ring[:-1] += m_out
             m_ring[1:] += m_out
             m_shaft[:, kc] = np.where(stick[:, kc], m_ring, 0.0)
-        ftk, fnk, mk = ft.sum(axis=0), fn.sum(axis=0), m_shaft.sum(axis=0)
-        layer = np.zeros((nl, 4))
-        tied = np.zeros((nl, 2))
-        for col, val in ((0, ftk), (1, -fnk)):
-            layer[:, col] = np.bincount(lo, (1.0 - wt) * val, nl) + np.bincount(hi, wt * val, nl)
-        tied[:, 0] = np.bincount(lo, (1.0 - wt) * mk, nl) + np.bincount(hi, wt * mk, nl)
-        out = self._out
-        layer[0, 2] = out[1]
-        layer[0, 3] = out[0]
+        rows = np.stack((ft.sum(axis=0), -fn.sum(axis=0), m_shaft.sum(axis=0)), axis=-1)
         moved = f.v[: ia + 1, :, kc:, 2] != v_trial[:, :, :, 2]
         moved[ia, :, 1 if self.rim != "shaft" else 0 :] = False
         moved[0, 1:] = False  # (the axis once)
-        tied[0, 1] = float(f.nmass[: ia + 1, :, kc:][moved].sum())
-        base = np.array([0.0, 0.0, out[1]])
-        shaft = np.array([0.0, 0.0, out[3]])
-        return ContactLoad(scale * layer, scale * base, scale * shaft, scale * tied, dt)
+        return self._load_on_levels(s, rows, float(f.nmass[: ia + 1, :, kc:][moved].sum()), dt)
 
     def before_remap(self, displacement: np.ndarray) -> None:
         """No inward mesh motion through the shaft's faces and none upwards relative to the pile above its base

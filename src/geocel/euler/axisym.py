@@ -54,7 +54,7 @@ from .lagrange import (
     mode_limit,
     strength_reserve,
 )
-from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
+from .nonlocal_mean import MAX_FACTOR, axis_weights
 
 #: components of the hourglass control kept after the material state (generalised stresses of the r and z
 #: modes, per unit soil volume, Pa)
@@ -363,44 +363,82 @@ def nonlocal_weights_rz(rc, zc, length: float) -> tuple:
 
 def nonlocal_mean_rz(rc, hr, hz, Vs, weights, x, scratch, out) -> None:
     """The non-local mean x* of the cell values ``x`` over the soil (:mod:`geocel.euler.nonlocal_mean`; 0 in void
-    cells); ``weights`` from :func:`nonlocal_weights_rz`, ``scratch`` five arrays of the cells' shape."""
-    Vw = scratch[0]
-    _soil_volumes_rz(Vs, rc, hr, hz, Vw)
-    shape3 = (Vs.shape[0], 1, Vs.shape[1])
-    nonlocal_mean(
-        Vw.reshape(shape3), x.reshape(shape3), weights, [a.reshape(shape3) for a in scratch[1:]], out.reshape(shape3)
-    )
+    cells); ``weights`` from :func:`nonlocal_weights_rz`, ``scratch`` four arrays of the cells' shape."""
+    (lo_r, w_r), _, (lo_z, w_z) = weights
+    _nonlocal_rz(np.zeros((1, 1, 2)), rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, Vs.shape[0], x, *scratch[:4], out, NO_SPLIT,
+                 False, _ALL_DUE, 0)  # fmt: skip
 
 
-def nonlocal_factor_rz(v, rc, hr, hz, Vs, weights, nd, scratch, out, split=NO_SPLIT) -> None:
+#: the cell levels of a step in which every cell is due (:func:`nonlocal_factor_rz` without multi-rate levels)
+_ALL_DUE = np.zeros((1, 1), dtype=np.int8)
+
+
+def nonlocal_factor_rz(v, rc, hr, hz, Vs, weights, nd, scratch, out, split=NO_SPLIT, columns=None, due=None) -> None:
     """``out[i, k]`` = max(1, ‖D‖*/‖D‖) of every soil cell for the node velocities v (1 in void cells and where the
     soil is at rest). ``nd`` ends holding ‖D‖ (1/s); ``scratch``: as :func:`nonlocal_mean_rz`; ``split``: as
-    :func:`split_gradient_rz`."""
-    _stretching_norms_rz(v, rc, hr, hz, Vs, nd, split)
-    nonlocal_mean_rz(rc, hr, hz, Vs, weights, nd, scratch, out)
-    factor_from_mean(nd, out)
+    :func:`split_gradient_rz`; ``columns``: only the first columns (None: all), which must hold the reach of the
+    cells whose factor is used (the sums stop at the last column given); ``due`` = (cell levels, phase): only the
+    cells that update in the step (:func:`level_active`) get a factor (None: all)."""
+    (lo_r, w_r), _, (lo_z, w_z) = weights
+    n = Vs.shape[0] if columns is None else columns
+    clevel, phase = (_ALL_DUE, 0) if due is None else due
+    _nonlocal_rz(v, rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, n, nd, *scratch[:4], out, split, True, clevel, phase)
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def _soil_volumes_rz(Vs, rc, hr, hz, out):
-    ncr, ncz = Vs.shape
-    for i in prange(ncr):
+def _nonlocal_rz(v, rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, n, x, Vw, a, ar, br, out, split, factor, clevel, phase):
+    """The separable sums of :func:`geocel.euler.nonlocal_mean.nonlocal_mean` on the first ``n`` columns of the
+    r–z grid in two parallel regions (the general function's dozen launches and numpy passes cost more than the
+    sums): ``Vw`` the soil volumes, ``a`` = Vw x, ``ar`` and ``br`` the r-pass of a and Vw (row i written by
+    iteration i only), then the z-pass row by row. ``factor``: x is first set to ‖D‖ of ``v`` and ``out`` is the
+    factor max(1, x*/x) (1 where x = 0, at most :data:`MAX_FACTOR`), only in the cells due in ``phase`` by
+    their levels ``clevel`` ((1, 1): all); else ``out`` is x*. The weights of :func:`axis_weights` are 0 beyond a
+    cell's reach (a tail of zeros, and the first entry where rounding puts it just outside): those are skipped."""
+    ncz = Vs.shape[1]
+    every = clevel.shape[0] == 1
+    for i in prange(n):
         for k in range(ncz):
-            out[i, k] = _soil_volume(Vs, rc, hr, hz, i, k)
-
-
-@njit(parallel=True, **KERNEL_OPTIONS)
-def _stretching_norms_rz(v, rc, hr, hz, Vs, nd, split):
-    """‖D‖ (1/s) of every soil cell, 0 in void cells."""
-    ncr, ncz = Vs.shape
-    for i in prange(ncr):
+            vs = _soil_volume(Vs, rc, hr, hz, i, k)
+            Vw[i, k] = vs
+            if factor:
+                if vs == 0.0:
+                    x[i, k] = 0.0
+                else:
+                    L, _ = split_gradient_rz(v, np.int64(i), k, hr[i], hz[k], rc[i], split)
+                    drz = 0.5 * (L[1] + L[2])
+                    x[i, k] = np.sqrt(L[0] * L[0] + L[4] * L[4] + L[3] * L[3] + 2.0 * drz * drz)
+            a[i, k] = vs * x[i, k]
+    nwr = w_r.shape[1]
+    nwz = w_z.shape[1]
+    for i in prange(n):
         for k in range(ncz):
-            if _soil_volume(Vs, rc, hr, hz, i, k) == 0.0:
-                nd[i, k] = 0.0
+            ar[i, k] = 0.0
+            br[i, k] = 0.0
+        for m in range(min(nwr, n - lo_r[i])):
+            q = lo_r[i] + m
+            wm = w_r[i, m]
+            if wm == 0.0:
                 continue
-            L, _ = split_gradient_rz(v, np.int64(i), k, hr[i], hz[k], rc[i], split)  # (int64: one compiled version)
-            drz = 0.5 * (L[1] + L[2])
-            nd[i, k] = np.sqrt(L[0] * L[0] + L[4] * L[4] + L[3] * L[3] + 2.0 * drz * drz)
+            for k in range(ncz):
+                ar[i, k] += wm * a[q, k]
+                br[i, k] += wm * Vw[q, k]
+        for k in range(ncz):
+            if factor and not (every or level_active(clevel[i, k], phase)):
+                continue
+            own = x[i, k] if factor else 1.0
+            if Vw[i, k] > 0.0 and own > 0.0:
+                sa = 0.0
+                sb = 0.0
+                for m in range(min(nwz, ncz - lo_z[k])):
+                    wm = w_z[k, m]
+                    if wm == 0.0:
+                        continue
+                    q = lo_z[k] + m
+                    sa += wm * ar[i, q]
+                    sb += wm * br[i, q]
+                out[i, k] = min(max(sa / sb / own, 1.0), MAX_FACTOR) if factor else sa / sb
+            else:
+                out[i, k] = 1.0 if factor else 0.0
 
 
 @njit(**KERNEL_OPTIONS)

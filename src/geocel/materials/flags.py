@@ -4,6 +4,9 @@ The batched kernel returns them per cell; callers count them (DESIGN.md §4.3: r
 never silently applied).
 """
 
+import numpy as np
+from numba import njit
+
 LOW_STRESS = 1  #: p below p_min or a tensile principal stress: reset to the isotropic floor -p_min·I
 VOID_BELOW_ED = 2  #: e < e_d: evaluated with e = e_d (f_d = 0)
 VOID_ABOVE_EI = 4  #: e > e_i: evaluated with e = e_i
@@ -29,7 +32,19 @@ NAMES = {
 
 def count(flags) -> dict[str, int]:
     """Number of cells (or steps) in which each rule fired, from an array of flags."""
-    import numpy as np
-
     f = np.asarray(flags, dtype=np.int64)
     return {name: int(np.count_nonzero(f & bit)) for bit, name in NAMES.items()}
+
+
+@njit(cache=True)
+def tally(flags, out):
+    """``out[b]`` += the number of the ``flags`` (1D) with bit b set, b < len(out): one pass, in which the cells
+    that fired no rule (most) cost a test each (numpy's count per bit made a pass per rule that fired)."""
+    nb = out.shape[0]
+    for c in range(flags.shape[0]):
+        x = flags[c]
+        if x == 0:
+            continue
+        for b in range(nb):
+            if (x >> b) & 1:
+                out[b] += 1

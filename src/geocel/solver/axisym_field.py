@@ -147,7 +147,7 @@ class AxisymmetricField(FieldBalances):
         )
         if self._nonlocal_weights is not None and not reaches_a_neighbour(self._nonlocal_weights):
             self._nonlocal_weights = None
-        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(6)) if self._nonlocal_weights else ()
+        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(5)) if self._nonlocal_weights else ()
         self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / node_spacing(g.hz))
         self._init_bookkeeping()
         #: contact with a pile (:class:`geocel.contact.axisym.AxisymmetricPileContact`), applied to the trial
@@ -272,7 +272,7 @@ class AxisymmetricField(FieldBalances):
         t1 = perf_counter()
         nonlocal_ = self._nonlocal_weights is not None
         if nonlocal_:
-            self._nonlocal_factors(self._nonlocal_columns[_trailing_zeros(phase, levels)] if levels > 0 else None)
+            self._nonlocal_factors(phase if levels > 0 else None)
         dtc, arg = update_cells_rz(
             self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
             self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
@@ -361,16 +361,15 @@ class AxisymmetricField(FieldBalances):
             )
         return float(clock[1])
 
-    def _nonlocal_factors(self, columns: int | None) -> None:
-        """The non-local factors of the cells of the first ``columns`` columns (None: all), which must include
-        the reach of every cell that updates in the step (:meth:`_multirate_cycle`): the mean of a cell takes
-        in the columns within its reach only, so its factor is the one over the whole grid."""
-        n = self.grid.nr if columns is None else columns
-        (lo, w), _, wz = self._nonlocal_weights
+    def _nonlocal_factors(self, phase: int | None) -> None:
+        """The non-local factors of the cells that update in the step ``phase`` of a multi-rate cycle (None: all
+        cells), from the first columns that hold the reach of every such cell (:meth:`_multirate_cycle`): the
+        mean of a cell takes in the columns within its reach only, so its factor is the one over the whole grid."""
         sc = self._nonlocal_scratch
+        columns = None if phase is None else self._nonlocal_columns[_trailing_zeros(phase, self.settings.multirate_levels)]
         nonlocal_factor_rz(
-            self.v[: n + 1], self.rc[:n], self.hr[:n], self.hz, self.Vs[:n], ((lo[:n], w[:n]), None, wz), sc[0][:n],
-            [a[:n] for a in sc[1:]], self.nonlocal_factor[:n], self.split,
+            self.v, self.rc, self.hr, self.hz, self.Vs, self._nonlocal_weights, sc[0], sc[1:], self.nonlocal_factor,
+            self.split, columns, None if phase is None else (self.cell_level, phase),
         )  # fmt: skip
 
     def _multirate_dt(self) -> tuple[float, int]:

@@ -160,12 +160,15 @@ class Backend:
         soil step."""
         f = self.field
         dt = f.dt
-        gov = {
-            "body": "soil",
-            "element": {"cell": int(f.governing_cell), "position_m": self.cell_position(f.governing_cell)},
-            "dt": dt,
-        }
+        # (the cell's position is found for the summary only: :meth:`governing_element`)
+        gov = {"body": "soil", "element": {"cell": int(f.governing_cell)}, "dt": dt}
         return dt, gov, 1
+
+    def governing_element(self, element: dict | None) -> dict | None:
+        """The governing element of :meth:`governing` for the summary: a soil cell with its position (m)."""
+        if element is None or "cell" not in element:
+            return element
+        return {**element, "position_m": self.cell_position(element["cell"])}
 
     def advance(self, dt: float, velocity: float, ramp: float, substeps: int) -> tuple[float, float, float]:
         """Move the pile (head velocity ``velocity`` after a smooth start over ``ramp``, evaluated at the

@@ -240,6 +240,7 @@ class Simulation:
         self.status = "created"
         self.wall_time = 0.0
         self.rule_counts: dict[str, int] = dict.fromkeys(fl.NAMES.values(), 0)
+        self._rule_tally = np.zeros(len(fl.NAMES), dtype=np.int64)  # (one step's, :meth:`_count_rules`)
         self.governing = {"body": "soil", "element": None, "dt": None}
         self._substeps = 1
         #: steps taken by the pile (more than the soil's when it is subcycled)
@@ -559,7 +560,7 @@ class Simulation:
             # (constitutive update), remap (+ exclusion of soil from the pile), bookkeeping
             "soil_phase_times": {k: round(v, 3) for k, v in f.timers.items()},
             "dt_governing_body": self.governing["body"],
-            "dt_governing_element": self.governing["element"],
+            "dt_governing_element": self.backend.governing_element(self.governing["element"]),
             "dt_governing_value": self.governing["dt"],
             "dt_min": self.dt_min,
             "dt_last": f.dt,
@@ -871,8 +872,9 @@ class Simulation:
             self.diagnostic["last_complete_penetration"] = self.head_displacement()
 
     def _count_rules(self) -> None:
-        flags = self.backend.rule_flags()
-        fired = int(np.bitwise_or.reduce(flags, axis=None))  # one pass; most steps fire no rule at all
-        for bit, name in fl.NAMES.items():
-            if fired & bit:
-                self.rule_counts[name] += int(np.count_nonzero(flags & bit))
+        tally = self._rule_tally
+        tally[:] = 0
+        fl.tally(self.backend.rule_flags().reshape(-1), tally)
+        for b, name in enumerate(fl.NAMES.values()):
+            if tally[b]:
+                self.rule_counts[name] += int(tally[b])
