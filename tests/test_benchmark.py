@@ -36,6 +36,31 @@ def test_cell_average_removes_a_ripple_of_one_cell_and_keeps_a_linear_trend():
     assert len(out) == len(z)
 
 
+def test_cell_average_weighs_each_row_by_its_interval_inside_the_window():
+    """Rows half a cell apart (as `history_every` = 0.05 m on 0.1 m cells), each the exact impulse average of a
+    linear trend plus a ripple of one cell's period over the tip's advance since the row before: the cell
+    average is the trend, and 10⁻⁶ m of jitter in the rows' depths does not move it (counting the rows whose
+    depth lay within half a window made it jump by a third of the ripple and more)."""
+    h, amp = 0.1, 0.5e6
+    rng = np.random.default_rng(2)
+
+    def history():
+        z = np.arange(0.0, 2.0 + 1e-9, h / 2)
+        z[1:] += 1e-6 * rng.uniform(-1.0, 1.0, z.size - 1)
+
+        def F(x):  # ∫ (1e6 (1 + x) + amp sin(2π x / h)) dx
+            return 1e6 * (x + 0.5 * x * x) - amp * h / (2 * np.pi) * np.cos(2 * np.pi * x / h)
+
+        q = (F(z[1:]) - F(z[:-1])) / np.diff(z)
+        return pd.DataFrame({"tip_depth": z, "qb": np.r_[np.nan, q], "qs": np.r_[np.nan, q]})
+
+    a, b = cell_average(history(), h), cell_average(history(), h)
+    za = a["tip_depth"].to_numpy()
+    inner = (za > h) & (za < 2.0 - h)
+    np.testing.assert_allclose(a["qb"].to_numpy()[inner], 1e6 * (1.0 + za[inner]), rtol=1e-4)
+    np.testing.assert_allclose(a["qb"].to_numpy()[inner], b["qb"].to_numpy()[inner], rtol=1e-4)
+
+
 def test_an_interrupted_variant_continues_from_its_checkpoint(tmp_path, monkeypatch):
     """A benchmark variant whose process was stopped continues where its checkpoint left it (and ends where an
     uninterrupted run ends); a finished one is skipped."""

@@ -74,12 +74,13 @@ def q_lin(z: np.ndarray) -> np.ndarray:
 
 
 def write_run(root, h: float, p: float, c: float = 2.0):
-    """A run directory with q_b = q_lin (1 + c h^p) as its history (rows every 0.03 m: no row on the edge
-    of a cell window, so each window is symmetric)."""
+    """A run directory with q_b = q_lin (1 + c h^p) as its history, rows every 0.03 m; a row holds, as a run's
+    does, the average over the tip's advance since the row before (of a straight line: its value half-way)."""
     root.mkdir(parents=True)
     z = np.arange(0.0, 3.0 + 1e-9, 0.03)
-    hist = pd.DataFrame({"step": np.arange(len(z)), "tip_depth": z, "qb": q_lin(z) * (1 + c * h**p),
-                         "qs": 1e3 * (1 + z) * (1 - c * h**p)})  # fmt: skip
+    mid = np.maximum(z - 0.015, 0.0)
+    hist = pd.DataFrame({"step": np.arange(len(z)), "tip_depth": z, "qb": q_lin(mid) * (1 + c * h**p),
+                         "qs": 1e3 * (1 + mid) * (1 - c * h**p)})  # fmt: skip
     with open(root / "history.csv", "w") as f:
         f.write("# units: step [-], tip_depth [m], qb [Pa], qs [Pa]\n")
         hist.to_csv(f, index=False)

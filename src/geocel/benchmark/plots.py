@@ -29,15 +29,25 @@ __all__ = [
 
 def cell_average(h: pd.DataFrame, width: float) -> pd.DataFrame:
     """The history with q_b and q_s averaged over a window of ``width`` m of tip depth centred on each row
-    (rows are already impulse averages; a window of one grid cell removes the ripple of the tip crossing
-    cell faces, which is a discretisation artefact and not soil behaviour)."""
+    (a window of one grid cell removes the ripple of the tip crossing cell faces, which is a discretisation
+    artefact and not soil behaviour). Each row is an impulse average over the tip's advance since the row
+    before, so it weighs in with the part of that interval inside the window: a row that only touches the
+    window's edge adds nothing (counting whole rows made the mean jump with 10⁻⁵ m of row position when the
+    rows lie half a window apart: 4 % in q_b between two runs with equal rows)."""
+    z_all = h["tip_depth"].to_numpy(float)
     h = h.iloc[1:].copy()
     if width <= 0.0 or len(h) < 3:
         return h
-    z = h["tip_depth"].to_numpy()
+    lo, hi = np.minimum(z_all[:-1], z_all[1:]), np.maximum(z_all[:-1], z_all[1:])  # (each row's interval)
+    z = z_all[1:]
     for col in ("qb", "qs"):
-        q = h[col].to_numpy()
-        h[col] = [np.nanmean(q[np.abs(z - zi) <= 0.5 * width]) for zi in z]
+        q = h[col].to_numpy(float)
+        ok = np.isfinite(q)
+        out = np.empty(len(z))
+        for j, zj in enumerate(z):
+            w = np.clip(np.minimum(hi, zj + 0.5 * width) - np.maximum(lo, zj - 0.5 * width), 0.0, None) * ok
+            out[j] = np.sum(w * np.where(ok, q, 0.0)) / w.sum() if w.sum() > 0.0 else q[j]
+        h[col] = out
     return h
 
 

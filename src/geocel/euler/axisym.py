@@ -54,7 +54,7 @@ from .lagrange import (
     mode_limit,
     strength_reserve,
 )
-from .nonlocal_mean import MAX_FACTOR, axis_weights
+from .nonlocal_mean import MAX_FACTOR, axis_weights, front_row_sum
 
 #: components of the hourglass control kept after the material state (generalised stresses of the r and z
 #: modes, per unit soil volume, Pa)
@@ -408,20 +408,9 @@ def _nonlocal_rz(v, rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, n, x, Vw, a, ar, br, o
                     drz = 0.5 * (L[1] + L[2])
                     x[i, k] = np.sqrt(L[0] * L[0] + L[4] * L[4] + L[3] * L[3] + 2.0 * drz * drz)
             a[i, k] = vs * x[i, k]
-    nwr = w_r.shape[1]
     nwz = w_z.shape[1]
     for i in prange(n):
-        for k in range(ncz):
-            ar[i, k] = 0.0
-            br[i, k] = 0.0
-        for m in range(min(nwr, n - lo_r[i])):
-            q = lo_r[i] + m
-            wm = w_r[i, m]
-            if wm == 0.0:
-                continue
-            for k in range(ncz):
-                ar[i, k] += wm * a[q, k]
-                br[i, k] += wm * Vw[q, k]
+        front_row_sum(lo_r, w_r, i, n, a, Vw, ar, br)
         for k in range(ncz):
             if factor and not (every or level_active(clevel[i, k], phase)):
                 continue

@@ -152,18 +152,27 @@ def _pass(axis, lo, w, a, b, a_out, b_out) -> None:
 @njit(parallel=True, **KERNEL_OPTIONS)
 def _pass_front(lo, w, a, b, a_out, b_out):
     """(n, m) arrays, summed along the first axis: out[i, :] = Σ_m w[i, m] src[lo[i] + m, :]."""
-    n, nrest = a.shape
-    nw = w.shape[1]
+    n = a.shape[0]
     for i in prange(n):
+        front_row_sum(lo, w, i, n, a, b, a_out, b_out)
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def front_row_sum(lo, w, i, n, a, b, a_out, b_out):
+    """Row i of the sum along the first axis over the first ``n`` rows: a_out[i, :] = Σ_m w[i, m] a[lo[i] + m, :],
+    the same for b (the weights' zeros, beyond the reach, skipped)."""
+    nrest = a.shape[1]
+    for c in range(nrest):
+        a_out[i, c] = 0.0
+        b_out[i, c] = 0.0
+    for m in range(min(w.shape[1], n - lo[i])):
+        wm = w[i, m]
+        if wm == 0.0:
+            continue
+        q = lo[i] + m
         for c in range(nrest):
-            a_out[i, c] = 0.0
-            b_out[i, c] = 0.0
-        for m in range(min(nw, n - lo[i])):
-            q = lo[i] + m
-            wm = w[i, m]
-            for c in range(nrest):
-                a_out[i, c] += wm * a[q, c]
-                b_out[i, c] += wm * b[q, c]
+            a_out[i, c] += wm * a[q, c]
+            b_out[i, c] += wm * b[q, c]
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
