@@ -44,9 +44,11 @@ def cell_average(h: pd.DataFrame, width: float) -> pd.DataFrame:
         q = h[col].to_numpy(float)
         ok = np.isfinite(q)
         out = np.empty(len(z))
+        q0 = np.where(ok, q, 0.0)
         for j, zj in enumerate(z):
             w = np.clip(np.minimum(hi, zj + 0.5 * width) - np.maximum(lo, zj - 0.5 * width), 0.0, None) * ok
-            out[j] = np.sum(w * np.where(ok, q, 0.0)) / w.sum() if w.sum() > 0.0 else q[j]
+            total = w.sum()
+            out[j] = np.dot(w, q0) / total if total > 0.0 else q[j]
         h[col] = out
     return h
 
