@@ -21,7 +21,9 @@ def _checkpoint(d: dict, out, threads: int) -> dict:
     before = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:
-        Simulation(scenario_from_dict(d), out=out, progress=False, write_fields=False).run(stop_after_steps=STEPS)
+        Simulation(scenario_from_dict(d), out=out, progress=False, write_fields=False).run(
+            stop_after_steps=STEPS
+        )
     finally:
         numba.set_num_threads(before)
     with np.load(out / "checkpoint.npz") as z:
@@ -43,9 +45,12 @@ CASES = {
     "tensor": lambda: _small(preset_dict("deeks-white", resolution="demo", pile="coupled")),
     "nested": lambda: _small(preset_dict("deeks-white", resolution="demo", pile="coupled", layout="nested")),
     "rz-multirate": lambda: _small(
-        preset_dict("deeks-white", resolution="demo", pile="coupled", symmetry="axisymmetric"), multirate_levels=3
+        preset_dict("deeks-white", resolution="demo", pile="coupled", symmetry="axisymmetric"),
+        multirate_levels=3,
     ),
-    "cylindrical": lambda: _small(preset_dict("deeks-white", resolution="demo", pile="coupled", layout="cylindrical")),
+    "cylindrical": lambda: _small(
+        preset_dict("deeks-white", resolution="demo", pile="coupled", layout="cylindrical")
+    ),
 }
 
 
