@@ -218,7 +218,10 @@ def project_pile_rz(ia, kc, t_edge, nmass, cmass, v, fix, mtiny, vp, vs, mu, mu_
     if t_edge < 0.0:
         for i in range(ia):
             for k in range(kc, nz1):
-                _signorini_base(i, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out)
+                # (the guard repeats the helper's own first test: without it in the loop, the inlined body
+                # cost 30 ns per empty node of the pile's interior, 15 times the loop's time with it)
+                if nmass[i, k] > mtiny:
+                    _signorini_base(i, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out)
     else:
         # the base crosses the vertical edges (i, kc)–(i, kc+1) at t: the soil there moves with
         # (1 − t) v_a + t v_b; Signorini and friction at that point, the impulse shared by the weights; the
@@ -228,7 +231,8 @@ def project_pile_rz(ia, kc, t_edge, nmass, cmass, v, fix, mtiny, vp, vs, mu, mu_
                 _edge_base(i, kc, t_edge, nmass, v, fix, mtiny, vp, mu_b, c, out)
             for i in range(ia):
                 for k in range(kc + 1, nz1):
-                    _signorini_base(i, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out)
+                    if nmass[i, k] > mtiny:
+                        _signorini_base(i, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out)
     if rim == 1 or rim == 2:
         m = nmass[ia, kc]
         kap = 1.0

@@ -132,15 +132,18 @@ def project_pile_cyl(ia, kc, nmass, v, fix, mtiny, vp, vs, mu, mu_b, rim, dt, fn
     fn[...] = 0.0
     ft[...] = 0.0
     c = 1.0 / dt
+    # (each loop repeats the helper's first test: the inlined body costs far more per empty node without it,
+    # contact/axisym.py's project_pile_rz)
     for k in range(kc, nz1):  # the axis: one node
-        if _base_projection(0, 0, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out):
+        if nmass[0, 0, k] > mtiny and _base_projection(0, 0, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out):
             for j in range(1, nt1):
                 for d in range(3):
                     v[0, j, k, d] = v[0, 0, k, d]
     for i in range(1, ia):
         for j in range(nt1):
             for k in range(kc, nz1):
-                _base_projection(i, j, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out)
+                if nmass[i, j, k] > mtiny:
+                    _base_projection(i, j, k, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out)
     for j in range(nt1):
         if rim == 1:
             _base_projection(ia, j, kc, nmass, v, fix, mtiny, vp, mu_b, 1.0, c, out)
