@@ -396,10 +396,14 @@ def _nonlocal_rz(v, rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, n, x, Vw, a, ar, br, o
     cell's reach (a tail of zeros, and the first entry where rounding puts it just outside): those are skipped."""
     ncz = Vs.shape[1]
     every = clevel.shape[0] == 1
+    top = np.empty(n, dtype=np.int64)  # each column's highest row with soil (−1: none)
     for i in prange(n):
+        top[i] = -1
         for k in range(ncz):
             vs = _soil_volume(Vs, rc, hr, hz, i, k)
             Vw[i, k] = vs
+            if vs > 0.0:
+                top[i] = k
             if factor:
                 if vs == 0.0:
                     x[i, k] = 0.0
@@ -409,8 +413,13 @@ def _nonlocal_rz(v, rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, n, x, Vw, a, ar, br, o
                     x[i, k] = np.sqrt(L[0] * L[0] + L[4] * L[4] + L[3] * L[3] + 2.0 * drz * drz)
             a[i, k] = vs * x[i, k]
     nwz = w_z.shape[1]
+    # the rows above the highest soil hold no soil in these columns: their sums are zero and their cells void, so
+    # the sums stop there (in the pile's frame most of the grid is the void the soil will rise into)
+    nsoil = 0
+    for i in range(n):
+        nsoil = max(nsoil, top[i] + 1)
     for i in prange(n):
-        front_row_sum(lo_r, w_r, i, n, a, Vw, ar, br)
+        front_row_sum(lo_r, w_r, i, n, a, Vw, ar, br, nsoil)
         for k in range(ncz):
             if factor and not (every or level_active(clevel[i, k], phase)):
                 continue
@@ -418,7 +427,7 @@ def _nonlocal_rz(v, rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, n, x, Vw, a, ar, br, o
             if Vw[i, k] > 0.0 and own > 0.0:
                 sa = 0.0
                 sb = 0.0
-                for m in range(min(nwz, ncz - lo_z[k])):
+                for m in range(min(nwz, nsoil - lo_z[k])):
                     wm = w_z[k, m]
                     if wm == 0.0:
                         continue

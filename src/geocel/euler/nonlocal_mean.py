@@ -154,14 +154,14 @@ def _pass_front(lo, w, a, b, a_out, b_out):
     """(n, m) arrays, summed along the first axis: out[i, :] = Σ_m w[i, m] src[lo[i] + m, :]."""
     n = a.shape[0]
     for i in prange(n):
-        front_row_sum(lo, w, i, n, a, b, a_out, b_out)
+        front_row_sum(lo, w, i, n, a, b, a_out, b_out, a.shape[1])
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
-def front_row_sum(lo, w, i, n, a, b, a_out, b_out):
-    """Row i of the sum along the first axis over the first ``n`` rows: a_out[i, :] = Σ_m w[i, m] a[lo[i] + m, :],
-    the same for b (the weights' zeros, beyond the reach, skipped)."""
-    nrest = a.shape[1]
+def front_row_sum(lo, w, i, n, a, b, a_out, b_out, nrest):
+    """Row i of the sum along the first axis over the first ``n`` rows: a_out[i, :nrest] = Σ_m w[i, m] a[lo[i] + m,
+    :nrest], the same for b (the weights' zeros, beyond the reach, skipped; the entries from ``nrest`` on are not
+    written)."""
     for c in range(nrest):
         a_out[i, c] = 0.0
         b_out[i, c] = 0.0
