@@ -66,5 +66,5 @@ def test_two_threads_give_the_one_thread_run(tmp_path, case):
         finite = np.isfinite(a)
         assert np.array_equal(a[~finite], b[~finite], equal_nan=True), k  # (unused slots: nan, inf)
         a, b = a[finite], b[finite]
-        # round-off of the reductions' order, grown over the steps by the sand's rate equation (measured ≤ 1e-13)
+        # room for round-off of a reduction's order, grown by the sand's rate equation (measured: equal to the bit)
         assert np.abs(b - a).max(initial=0.0) <= 1e-9 * np.abs(a).max(initial=1e-300), k
