@@ -34,9 +34,8 @@ def _small(d: dict, **solver) -> dict:
     # the preset's model in a small container: cheap steps, the same kernels
     d["domain"].update(radius=2.0, soil_depth=3.0)
     d["domain"]["fine_depth"] = 1.0
-    d["pile"]["length"] = 2.0
+    d["pile"].update(length=2.0, initial_embedment=0.3)  # (wished in place: loaded from the first step)
     d.setdefault("solver", {}).update(solver)
-    d["pile"]["initial_embedment"] = 0.3  # (wished in place: the contact carries load from the first step)
     d["loading"].update(velocity=0.5, penetration=0.5, ramp=0.001)
     return d
 
