@@ -27,8 +27,8 @@ pytestmark = pytest.mark.usefixtures("one_thread")
 def test_levels_keep_every_cell_and_node_within_its_stable_step():
     """Random stable steps over four decades, void cells and cells not updated yet (0, inf): every soil cell's
     2^L Δt within its own step (level 0 where that is unknown), every node at most its cells' levels and every
-    cell at most its nodes' (so a node advances only when its cells are at its time), the contact's nodes at 0,
-    and the largest level used where a cell allows it."""
+    cell at most its nodes' (so a node advances only when its cells are at its time), the contact's nodes at 0
+    where they have mass (massless ones by the soil's rule), and the largest level used where a cell allows it."""
     rng = np.random.default_rng(3)
     nr, nz, dt, top = 30, 40, 1e-5, 3
     cell_dt = dt * 10.0 ** rng.uniform(0.0, 1.5, (nr, nz))
@@ -36,7 +36,10 @@ def test_levels_keep_every_cell_and_node_within_its_stable_step():
     soil = rng.uniform(size=(nr, nz)) > 0.2
     clevel = np.full((nr, nz), -1, dtype=np.int8)
     nlevel = np.full((nr + 1, nz + 1), -1, dtype=np.int8)
-    assign_levels_rz(cell_dt, soil, dt, top, np.array([2, 10]), clevel, nlevel)
+    soil[:2, 29:] = False  # the empty inside of a pile: its nodes have no mass
+    nmass = np.ones((nr + 1, nz + 1))
+    nmass[:2, 30:] = 0.0
+    assign_levels_rz(cell_dt, soil, dt, top, np.array([2, 10]), nmass, 1e-9, clevel, nlevel)
     known = soil & (cell_dt > 0.0) & np.isfinite(cell_dt)
     assert (dt * 2.0 ** clevel[known] <= cell_dt[known] * (1 + 1e-12)).all()
     assert clevel[5, 5] == 0 and (clevel[6, 7] == 0 or not soil[6, 7])
@@ -49,7 +52,8 @@ def test_levels_keep_every_cell_and_node_within_its_stable_step():
             intrinsic = np.clip(np.floor(np.log2(np.where(cell_dt > 0, cell_dt, dt) / dt)), 0, top)
             intrinsic[(cell_dt == 0) | ~np.isfinite(cell_dt)] = 0
             assert (corner[soil] <= intrinsic[soil]).all()
-    assert (nlevel[:2, 10:] == 0).all() and nlevel[:2, :10].max() > 0
+    assert (nlevel[:2, 10:][nmass[:2, 10:] > 0.0] == 0).all() and nlevel[:2, :10].max() > 0
+    assert (nlevel[:2, 30:] == top).all() and (clevel[0, 30:] == top).all()
 
 
 def _slide(levels):
@@ -161,13 +165,16 @@ def test_the_non_local_factor_of_the_first_columns_and_the_due_cells_is_the_whol
     f.geostatic([(0.0, 0.62)], k0=0.5)
     f.v[...] = np.random.default_rng(5).normal(size=f.v.shape)
 
-    def factors(columns=None, due=None):
+    def factors(columns=None, due=None, reuse=False):
         f.nonlocal_factor[...] = -1.0
+        for partial_sums in f._nonlocal_scratch[3:]:  # (the r-pass's: a row it should have summed shows)
+            partial_sums[...] = np.nan
         nonlocal_factor_rz(f.v, f.rc, f.hr, f.hz, f.Vs, f._nonlocal_weights, f._nonlocal_scratch[0],
-                           f._nonlocal_scratch[1:], f.nonlocal_factor, f.split, columns, due)  # fmt: skip
+                           f._nonlocal_scratch[1:], f.nonlocal_factor, f.split, columns, due, reuse)  # fmt: skip
         return f.nonlocal_factor.copy()
 
     whole = factors()
+    assert np.isfinite(whole).all()
     lo, w = f._nonlocal_weights[0]
     for cells in (1, 6, 12):
         columns = int(lo[cells - 1]) + w.shape[1]
@@ -182,3 +189,21 @@ def test_the_non_local_factor_of_the_first_columns_and_the_due_cells_is_the_whol
         np.testing.assert_allclose(part[due], whole[due], rtol=1e-13)
         assert (part[~due] == -1.0).all() and due.any() and not due.all()
     assert (whole[f.Vs > 0] > 1.0).any()
+
+    # inside a cycle: the nodes of level 0 in a band of rows (as under a pile's base) and of levels 1–2
+    # elsewhere; in each step the nodes due move, and the cells not due (none of whose nodes moved) keep the
+    # values of their last step: their factors equal those computed from every cell, to the bit
+    rng = np.random.default_rng(7)
+    nlevel = rng.integers(1, 3, size=(g.nr + 1, g.nz + 1)).astype(np.int8)
+    nlevel[:, 20:26] = 0
+    level = np.minimum(np.minimum(nlevel[:-1, :-1], nlevel[1:, :-1]), np.minimum(nlevel[:-1, 1:], nlevel[1:, 1:]))
+    factors(due=(level, 0))
+    for phase in (1, 2, 3):
+        moved = (phase & ((1 << nlevel.astype(np.int64)) - 1)) == 0
+        f.v[moved] += rng.normal(size=(int(moved.sum()), 2))
+        due = (phase & ((1 << level.astype(np.int64)) - 1)) == 0
+        reused = factors(due=(level, phase), reuse=True)
+        full = factors(due=(level, phase))
+        np.testing.assert_array_equal(reused[due], full[due])
+        assert np.isfinite(reused[due]).all()
+        assert (reused[due & (f.Vs > 0)] > 1.0).any() and not due.all()

@@ -159,15 +159,16 @@ def level_active(level, phase):
 
 
 @njit(**KERNEL_OPTIONS)
-def assign_levels_rz(cell_dt, soil, dt, max_level, level0_nodes, clevel, nlevel):
+def assign_levels_rz(cell_dt, soil, dt, max_level, level0_nodes, nmass, mtiny, clevel, nlevel):
     """Multi-rate levels for the next cycle of 2^``max_level`` steps of Δt = ``dt`` (LS-DYNA's subcycling by
     powers of two, the nodal partition of Belytschko, Yen & Mullen 1979): a soil cell may advance over 2^L Δt
     while that is within its own stable step ``cell_dt`` (s, the safety factor applied; 0 or inf for a cell
     not updated yet: level 0); a node takes the smallest level of its soil cells (``max_level`` without
-    any), the nodes of the first ``level0_nodes[0]`` columns from the row ``level0_nodes[1]`` up (those the
-    pile's contact projects) level 0, and every cell the smallest level of its four nodes. So a node advances
-    only when all its cells have reached its time, and no cell or node steps beyond its own stable step.
-    Serial: once per cycle."""
+    any), the nodes with mass (``nmass`` > ``mtiny``) of the first ``level0_nodes[0]`` columns from the row
+    ``level0_nodes[1]`` up (those the pile's contact projects: it skips the massless ones, which void keeps at
+    rest at any level, so the empty inside of a pile and the void above it do not step every time) level 0,
+    and every cell the smallest level of its four nodes. So a node advances only when all its cells have
+    reached its time, and no cell or node steps beyond its own stable step. Serial: once per cycle."""
     ncr, ncz = cell_dt.shape
     for i in range(ncr + 1):
         for k in range(ncz + 1):
@@ -187,7 +188,8 @@ def assign_levels_rz(cell_dt, soil, dt, max_level, level0_nodes, clevel, nlevel)
                         nlevel[i + a, k + b] = lev
     for i in range(min(level0_nodes[0], ncr + 1)):
         for k in range(max(level0_nodes[1], 0), ncz + 1):
-            nlevel[i, k] = 0
+            if nmass[i, k] > mtiny:
+                nlevel[i, k] = 0
     for i in range(ncr):
         for k in range(ncz):
             clevel[i, k] = min(nlevel[i, k], nlevel[i + 1, k], nlevel[i, k + 1], nlevel[i + 1, k + 1])
@@ -366,40 +368,60 @@ def nonlocal_mean_rz(rc, hr, hz, Vs, weights, x, scratch, out) -> None:
     cells); ``weights`` from :func:`nonlocal_weights_rz`, ``scratch`` four arrays of the cells' shape."""
     (lo_r, w_r), _, (lo_z, w_z) = weights
     _nonlocal_rz(np.zeros((1, 1, 2)), rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, Vs.shape[0], x, *scratch[:4], out, NO_SPLIT,
-                 False, _ALL_DUE, 0)  # fmt: skip
+                 False, _ALL_DUE, 0, False)  # fmt: skip
 
 
 #: the cell levels of a step in which every cell is due (:func:`nonlocal_factor_rz` without multi-rate levels)
 _ALL_DUE = np.zeros((1, 1), dtype=np.int8)
 
 
-def nonlocal_factor_rz(v, rc, hr, hz, Vs, weights, nd, scratch, out, split=NO_SPLIT, columns=None, due=None) -> None:
+def nonlocal_factor_rz(
+    v, rc, hr, hz, Vs, weights, nd, scratch, out, split=NO_SPLIT, columns=None, due=None, reuse=False
+) -> None:
     """``out[i, k]`` = max(1, ‖D‖*/‖D‖) of every soil cell for the node velocities v (1 in void cells and where the
     soil is at rest). ``nd`` ends holding ‖D‖ (1/s); ``scratch``: as :func:`nonlocal_mean_rz`; ``split``: as
     :func:`split_gradient_rz`; ``columns``: only the first columns (None: all), which must hold the reach of the
     cells whose factor is used (the sums stop at the last column given); ``due`` = (cell levels, phase): only the
-    cells that update in the step (:func:`level_active`) get a factor (None: all)."""
+    cells that update in the step (:func:`level_active`) get a factor (None: all); ``reuse``: ``nd`` and the first
+    two scratch arrays still hold the values of the cells not due from a call since which none of their nodes
+    moved and ``Vs`` did not change (inside a multi-rate cycle: a cell not due has no node that advanced), so
+    those are not computed again."""
     (lo_r, w_r), _, (lo_z, w_z) = weights
     n = Vs.shape[0] if columns is None else columns
     clevel, phase = (_ALL_DUE, 0) if due is None else due
-    _nonlocal_rz(v, rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, n, nd, *scratch[:4], out, split, True, clevel, phase)
+    _nonlocal_rz(v, rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, n, nd, *scratch[:4], out, split, True, clevel, phase,
+                 reuse and due is not None)  # fmt: skip
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def _nonlocal_rz(v, rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, n, x, Vw, a, ar, br, out, split, factor, clevel, phase):
+def _nonlocal_rz(
+    v, rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, n, x, Vw, a, ar, br, out, split, factor, clevel, phase, reuse
+):  # fmt: skip
     """The separable sums of :func:`geocel.euler.nonlocal_mean.nonlocal_mean` on the first ``n`` columns of the
     r–z grid in two parallel regions (the general function's dozen launches and numpy passes cost more than the
     sums): ``Vw`` the soil volumes, ``a`` = Vw x, ``ar`` and ``br`` the r-pass of a and Vw (row i written by
     iteration i only), then the z-pass row by row. ``factor``: x is first set to ‖D‖ of ``v`` and ``out`` is the
     factor max(1, x*/x) (1 where x = 0, at most :data:`MAX_FACTOR`), only in the cells due in ``phase`` by
     their levels ``clevel`` ((1, 1): all); else ``out`` is x*. The weights of :func:`axis_weights` are 0 beyond a
-    cell's reach (a tail of zeros, and the first entry where rounding puts it just outside): those are skipped."""
+    cell's reach (a tail of zeros, and the first entry where rounding puts it just outside): those are skipped.
+    The r-pass of a column covers only the rows its due cells' z-sums read (in a multi-rate step, the level-0
+    cells under the base are a band of rows); ``reuse`` (:func:`nonlocal_factor_rz`): the cells not due keep
+    their ``Vw``, ``x`` and ``a``."""
     ncz = Vs.shape[1]
+    nwz = w_z.shape[1]
     every = clevel.shape[0] == 1
     top = np.empty(n, dtype=np.int64)  # each column's highest row with soil (−1: none)
+    rows = np.empty((n, 2), dtype=np.int64)  # the rows each column's due soil cells read in the z-pass
     for i in prange(n):
         top[i] = -1
+        q0 = ncz
+        q1 = 0
         for k in range(ncz):
+            due = every or level_active(clevel[i, k], phase)
+            if reuse and not due:
+                if Vw[i, k] > 0.0:
+                    top[i] = k
+                continue
             vs = _soil_volume(Vs, rc, hr, hz, i, k)
             Vw[i, k] = vs
             if vs > 0.0:
@@ -412,14 +434,18 @@ def _nonlocal_rz(v, rc, hr, hz, Vs, lo_r, w_r, lo_z, w_z, n, x, Vw, a, ar, br, o
                     drz = 0.5 * (L[1] + L[2])
                     x[i, k] = np.sqrt(L[0] * L[0] + L[4] * L[4] + L[3] * L[3] + 2.0 * drz * drz)
             a[i, k] = vs * x[i, k]
-    nwz = w_z.shape[1]
+            if due and vs > 0.0:
+                q0 = min(q0, lo_z[k])
+                q1 = max(q1, lo_z[k] + nwz)
+        rows[i, 0] = q0
+        rows[i, 1] = q1
     # the rows above the highest soil hold no soil in these columns: their sums are zero and their cells void, so
     # the sums stop there (in the pile's frame most of the grid is the void the soil will rise into)
     nsoil = 0
     for i in range(n):
         nsoil = max(nsoil, top[i] + 1)
     for i in prange(n):
-        front_row_sum(lo_r, w_r, i, n, a, Vw, ar, br, nsoil)
+        front_row_sum(lo_r, w_r, i, n, a, Vw, ar, br, rows[i, 0], min(rows[i, 1], nsoil))
         for k in range(ncz):
             if factor and not (every or level_active(clevel[i, k], phase)):
                 continue

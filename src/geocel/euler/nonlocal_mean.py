@@ -154,25 +154,29 @@ def _pass_front(lo, w, a, b, a_out, b_out):
     """(n, m) arrays, summed along the first axis: out[i, :] = Σ_m w[i, m] src[lo[i] + m, :]."""
     n = a.shape[0]
     for i in prange(n):
-        front_row_sum(lo, w, i, n, a, b, a_out, b_out, a.shape[1])
+        front_row_sum(lo, w, i, n, a, b, a_out, b_out, 0, a.shape[1])
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
-def front_row_sum(lo, w, i, n, a, b, a_out, b_out, nrest):
-    """Row i of the sum along the first axis over the first ``n`` rows: a_out[i, :nrest] = Σ_m w[i, m] a[lo[i] + m,
-    :nrest], the same for b (the weights' zeros, beyond the reach, skipped; the entries from ``nrest`` on are not
-    written)."""
-    for c in range(nrest):
-        a_out[i, c] = 0.0
-        b_out[i, c] = 0.0
+def front_row_sum(lo, w, i, n, a, b, a_out, b_out, c0, c1):
+    """Row i of the sum along the first axis over the first ``n`` rows: a_out[i, c0:c1] = Σ_m w[i, m] a[lo[i] + m,
+    c0:c1], the same for b (the weights' zeros, beyond the reach, skipped; the other entries are not written).
+    The loops run over row slices: indexed from c0 directly they did not vectorise (1.5 times the time)."""
+    ao = a_out[i, c0:c1]
+    bo = b_out[i, c0:c1]
+    for j in range(ao.size):
+        ao[j] = 0.0
+        bo[j] = 0.0
     for m in range(min(w.shape[1], n - lo[i])):
         wm = w[i, m]
         if wm == 0.0:
             continue
         q = lo[i] + m
-        for c in range(nrest):
-            a_out[i, c] += wm * a[q, c]
-            b_out[i, c] += wm * b[q, c]
+        aq = a[q, c0:c1]
+        bq = b[q, c0:c1]
+        for j in range(ao.size):
+            ao[j] += wm * aq[j]
+            bo[j] += wm * bq[j]
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)

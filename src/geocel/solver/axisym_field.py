@@ -148,6 +148,8 @@ class AxisymmetricField(FieldBalances):
         if self._nonlocal_weights is not None and not reaches_a_neighbour(self._nonlocal_weights):
             self._nonlocal_weights = None
         self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(5)) if self._nonlocal_weights else ()
+        # the step at which the current multi-rate cycle's non-local values were all computed (−1: none)
+        self._nonlocal_cycle = -1
         self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / node_spacing(g.hz))
         self._init_bookkeeping()
         #: contact with a pile (:class:`geocel.contact.axisym.AxisymmetricPileContact`), applied to the trial
@@ -339,8 +341,8 @@ class AxisymmetricField(FieldBalances):
             soil = self.Vs > PHI_MIN * self.volume
             levels = self.settings.multirate_levels
             assign_levels_rz(
-                self.settings.safety_factor * self.cell_dt, soil, dt, levels, self.level0_nodes, self.cell_level,
-                self.node_level,
+                self.settings.safety_factor * self.cell_dt, soil, dt, levels, self.level0_nodes, self.nmass,
+                self.mass_tiny, self.cell_level, self.node_level,
             )  # fmt: skip
             if self._nonlocal_weights is not None:
                 # the columns the non-local mean needs in a step whose cells are up to each level: those of the
@@ -361,16 +363,24 @@ class AxisymmetricField(FieldBalances):
             )
         return float(clock[1])
 
+    def state_replaced(self) -> None:
+        """The state arrays were overwritten: the multi-rate cycle's non-local values are to be computed anew."""
+        self._nonlocal_cycle = -1
+
     def _nonlocal_factors(self, phase: int | None) -> None:
         """The non-local factors of the cells that update in the step ``phase`` of a multi-rate cycle (None: all
         cells), from the first columns that hold the reach of every such cell (:meth:`_multirate_cycle`): the
         mean of a cell takes in the columns within its reach only, so its factor is the one over the whole grid."""
         sc = self._nonlocal_scratch
         columns = None if phase is None else self._nonlocal_columns[_trailing_zeros(phase, self.settings.multirate_levels)]
+        # inside a cycle whose first step computed every cell, the cells not due keep their values (none of their
+        # nodes has moved since they were last due, and Vs changes only in the remap at the cycle's end)
+        reuse = phase is not None and phase > 0 and self._nonlocal_cycle == self.step_count - phase
         nonlocal_factor_rz(
             self.v, self.rc, self.hr, self.hz, self.Vs, self._nonlocal_weights, sc[0], sc[1:], self.nonlocal_factor,
-            self.split, columns, None if phase is None else (self.cell_level, phase),
+            self.split, columns, None if phase is None else (self.cell_level, phase), reuse,
         )  # fmt: skip
+        self._nonlocal_cycle = self.step_count if phase == 0 else self._nonlocal_cycle if reuse else -1
 
     def _multirate_dt(self) -> tuple[float, int]:
         """The smallest stable step of the soil cells at a cycle's end (s) and the cell it belongs to."""

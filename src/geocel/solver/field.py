@@ -212,6 +212,10 @@ class FieldBalances:
         self.timers: dict[str, float] = dict.fromkeys(("nodes", "cells", "remap", "bookkeeping"), 0.0)
         self._init_frame()
 
+    def state_replaced(self) -> None:
+        """The state arrays were overwritten in place (a restart, a step undone): forget what was derived from
+        them and kept between steps (nothing here)."""
+
     def book(self, dt: float, sums, dtc: float, arg: int, external: float = 0.0, kinetic_extra: float = 0.0) -> None:
         """Energies, clock and the next Δt (bounded by the growth ratio) after a step; ``external``: the work of
         the external forces and reactions (besides gravity's), ``kinetic_extra``: a correction to the kinetic

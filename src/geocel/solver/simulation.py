@@ -428,6 +428,7 @@ class Simulation:
                 "u_remap"
             ):  # (checkpoints before deferred remaps: none pending)
                 a[...] = arrays[name]
+        self.field.state_replaced()
         if self.pile is not None:
             self.backend.restore_pile_arrays({k[5:]: v for k, v in arrays.items() if k.startswith("pile_")})
             self._sums[...] = arrays["force_sums"]
