@@ -93,7 +93,8 @@ def _scenario(pile_type: str, penetration: float = 0.03, **pile) -> dict:
     return {
         "name": f"rz-{pile_type}",
         "domain": {"symmetry": "axisymmetric", "radius": 1.0, "soil_depth": 1.5, "void_height": 0.2,
-                   "fine_size": 0.05, "fine_radius": 0.4, "fine_depth": 0.8, "growth": 1.3, "max_size": 0.3},
+                   "fine_size": 0.05, "fine_radius": 0.4, "fine_depth": 0.8, "growth": 1.3, "max_size": 0.3,
+                   "frame": "laboratory"},
         "soil": {"model": "mohr-coulomb", "youngs_modulus": 20e6, "poisson_ratio": 0.3, "friction_angle": 30.0,
                  "cohesion": 1e3, "grain_density": 2650.0, "layers": [{"top": 0.0, "e0": 0.7}]},
         "pile": {"type": pile_type, "diameter": 0.2, "length": 1.0, "initial_embedment": 0.1, **pile},

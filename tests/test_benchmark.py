@@ -167,8 +167,8 @@ def _small_cylindrical_variant(
 
 
 def test_the_benchmark_runs_the_quarter_model_on_the_cylindrical_layout(tmp_path, monkeypatch):
-    """``geocel benchmark deeks-white --layout cylindrical``: the variants are the cylindrical preset's (the r–z
-    model's resolution, frame, corner and sand on the 3D layout); a run (in a small container) writes a report
+    """``geocel benchmark deeks-white --layout cylindrical``: the variants are the default preset's (the r–z
+    model's frame, corner and sand on the 3D layout, 2 cells per pile radius at the demo resolution); a run (in a small container) writes a report
     that says so, multiplies the quarter's forces by 4 and states the r–z inertia limits; q_b(z) is a direct
     Simulation's; the layout is refused with the r–z symmetry and a directory of the tensor-product model is not
     reused."""
@@ -192,7 +192,8 @@ def test_the_benchmark_runs_the_quarter_model_on_the_cylindrical_layout(tmp_path
     assert (sc.domain.layout, sc.domain.symmetry, sc.domain.frame, sc.contact.rim) == (
         "cylindrical", "quarter", "pile", "corner"
     )  # fmt: skip
-    assert sc.domain.fine_size == 0.05 and sc.soil.material.nonlocal_length == 0.1
+    assert sc.domain.fine_size == 0.15 and sc.soil.material.nonlocal_length == 0.1  # (the 3D demo: 2 cells per radius)
+    assert dw.variant_dict("rigid", 10.0, "demo", pen, v) == d  # (the preset's layout)
     with pytest.raises(ValueError, match="--layout = 'cylindrical': a grid of the 3D quarter model"):
         dw.plan_benchmark(out, "demo", pen, v, [("rigid", 1.0)], symmetry="axisymmetric", layout="cylindrical")
     with pytest.raises(ValueError, match="--layout = 'round': unknown"):
@@ -210,8 +211,8 @@ def test_the_benchmark_runs_the_quarter_model_on_the_cylindrical_layout(tmp_path
     report = (out / "report.md").read_text()
     valid, _ = inertia_limits("axisymmetric")
     assert "3D quarter model on the cylindrical layout" in report and "multiplied by 4" in report
-    assert "resolution `demo` (0.05 m cells at the pile, 6 per pile radius)" in report
-    assert f"≤ {100 * valid:.2g} % valid" in report and "one grid cell of tip depth (0.05 m)" in report
+    assert "resolution `demo` (0.15 m cells at the pile, 2 per pile radius)" in report
+    assert f"≤ {100 * valid:.2g} % valid" in report and "one grid cell of tip depth (0.15 m)" in report
 
     direct = Simulation(
         scenario_from_dict(_small_cylindrical_variant("rigid", 1.0, "demo", pen, v, layout="cylindrical")),
@@ -223,4 +224,4 @@ def test_the_benchmark_runs_the_quarter_model_on_the_cylindrical_layout(tmp_path
     np.testing.assert_array_equal(bench["qb"].to_numpy(), ref["qb"].to_numpy())
     assert np.nanmax(ref["qb"]) > 0.0
     with pytest.raises(ScenarioMismatchError, match=r"\[domain\]\.layout"):
-        dw.plan_benchmark(out, "demo", pen, v, [("rigid", 1.0)])
+        dw.plan_benchmark(out, "demo", pen, v, [("rigid", 1.0)], layout="tensor")

@@ -283,7 +283,7 @@ AT_REST = {
     "name": "shaft-profile",
     "domain": {
         "symmetry": "quarter", "radius": 0.6, "soil_depth": 0.9, "void_height": 0.2, "fine_size": 0.05,
-        "fine_radius": 0.4, "fine_depth": 0.8, "growth": 1.3,
+        "fine_radius": 0.4, "fine_depth": 0.8, "growth": 1.3, "layout": "tensor",
     },
     "soil": {"model": "mohr-coulomb", "preset": "mohr-coulomb-sand", "layers": [{"top": 0.0, "e0": 0.7}]},
     "initial": {"k0": 0.5},

@@ -172,5 +172,5 @@ def test_cli_preset_prints_an_editable_scenario(tmp_path):
     assert sc.pile.diameter == 0.6 and sc.domain.radius == 21.25 and sc.initial.k0 == 0.5
     assert sc.contact.friction_coefficient(sc.soil.material) == pytest.approx(np.tan(np.radians(20.0)))
     res = runner.invoke(app, ["preset", "deeks-white", "--resolution", "demo"])
-    assert res.exit_code == 0 and "fine_size = 0.2" in res.output
+    assert res.exit_code == 0 and "fine_size = 0.15" in res.output
     assert runner.invoke(app, ["preset", "nope"]).exit_code == 2

@@ -50,7 +50,6 @@ def test_pile_run_matches_the_standalone_driver_and_writes_a_structured_grid(tmp
     s = sim.run()
     assert s["status"] == "finished" and s["symmetry"] == "quarter" and s["pile_model"].startswith("r–z")
     assert abs(s["soil_mass_error"]) < 1e-12 and s["soil_inside_pile"] < 1e-9
-    assert any("cylindrical layout is experimental" in n for n in s["notes"])
     assert s["inertia_calibration"] == "axisymmetric"  # (its numerics are r–z's: r–z's calibration of the check)
     h = read_history(tmp_path / "run" / "history.csv")
     a = 0.1
@@ -127,10 +126,11 @@ def test_bad_cylindrical_input_is_one_clear_line(change, needle):
     assert needle in str(err.value)
 
 
-def test_preset_with_the_cylindrical_layout_is_the_rz_model_in_3d():
-    """``geocel preset deeks-white --layout cylindrical``: the r–z preset's model (the pile's frame, its split
-    corner, the non-local sand, a rigid pile, the r–z resolutions) on a quarter of the cylindrical layout, a half
-    with ``--symmetry half``; other symmetries are refused with exit code 2."""
+def test_the_default_preset_is_the_rz_model_on_the_cylindrical_layout():
+    """``geocel preset deeks-white``: the r–z preset's model (the pile's frame, its split corner, the non-local
+    sand) on a quarter of the cylindrical layout with the paper's coupled pile; a half with ``--symmetry half``, a
+    Cartesian grid in the laboratory's frame with ``--symmetry full`` or ``--layout tensor``; combinations that
+    cannot be are refused with exit code 2."""
     import tomllib
 
     from typer.testing import CliRunner
@@ -138,16 +138,24 @@ def test_preset_with_the_cylindrical_layout_is_the_rz_model_in_3d():
     from geocel.cli import app
 
     runner = CliRunner()
-    rz = scenario_from_dict(tomllib.loads(runner.invoke(app, ["preset", "deeks-white", "--symmetry", "axisymmetric"]).output))
-    res = runner.invoke(app, ["preset", "deeks-white", "--layout", "cylindrical"])
-    assert res.exit_code == 0 and "# Runtime:" in res.output and "cylindrical layout" in res.output
-    sc = scenario_from_dict(tomllib.loads(res.output))
-    assert sc.domain.layout == "cylindrical" and sc.domain.symmetry == "quarter"
-    for a, b in ((sc.domain, rz.domain), (sc.pile, rz.pile), (sc.loading, rz.loading), (sc.contact, rz.contact)):
-        same = {k: v for k, v in a.model_dump().items() if k not in ("symmetry", "layout")}
-        assert same == {k: v for k, v in b.model_dump().items() if k not in ("symmetry", "layout")}
-    assert sc.soil.material == rz.soil.material and sc.scaling == rz.scaling
-    half = runner.invoke(app, ["preset", "deeks-white", "--layout", "cylindrical", "--symmetry", "half"])
-    assert scenario_from_dict(tomllib.loads(half.output)).domain.symmetry == "half"
+
+    def preset(*args):
+        res = runner.invoke(app, ["preset", "deeks-white", *args])
+        assert res.exit_code == 0, res.output
+        return scenario_from_dict(tomllib.loads(res.output))
+
+    rz = preset("--symmetry", "axisymmetric")
+    for sc in (preset(), preset("--resolution", "demo")):
+        assert (sc.domain.layout, sc.domain.symmetry, sc.domain.frame) == ("cylindrical", "quarter", "pile")
+        assert sc.contact == rz.contact and sc.contact.rim == "corner"
+        assert sc.soil.material == rz.soil.material and sc.soil.material.nonlocal_length == 0.1
+        assert sc.pile.type == "coupled" and sc.pile.element_size == rz.pile.element_size
+        assert round(0.5 * sc.pile.diameter / sc.domain.fine_size, 9).is_integer()  # (the shaft on a node ring)
+    assert preset("--symmetry", "half").domain.layout == "cylindrical"
+    for args in (("--symmetry", "full"), ("--layout", "tensor")):
+        d = preset(*args).domain
+        assert (d.layout, d.frame) == ("tensor", "laboratory")
     bad = runner.invoke(app, ["preset", "deeks-white", "--layout", "cylindrical", "--symmetry", "axisymmetric"])
+    assert bad.exit_code == 2 and "own grid" in bad.output
+    bad = runner.invoke(app, ["preset", "deeks-white", "--layout", "cylindrical", "--symmetry", "full"])
     assert bad.exit_code == 2 and "quarter and half" in bad.output

@@ -51,16 +51,16 @@ SCENARIO_CASES = {
         _preset(**{"soil.layers": [{"top": 0.0, "e0": 0.3}]}),
         r"\[soil\.layers\[0\]\]\.e0 = 0\.3: is below e_d = 0\.49: e0 must lie in \[e_d, e_i\] = \[0\.49, ",
     ),
-    "100 m pile in a 29 m domain": (
+    "100 m pile in a 30 m domain": (  # (28 m of soil, 1 m of void and, in the pile's frame, the 1 m penetration)
         _preset(**{"pile.length": 100.0}),
-        r"\[pile\]\.length = 100\.0: longer than the domain is high \(soil_depth \+ void_height = 29 m\)",
+        r"\[pile\]\.length = 100\.0: longer than the domain is high \(soil_depth \+ void_height = 30 m\)",
     ),
     "penetration beyond the pile length": (
         _preset(**{"pile.length": 2.0, "loading.penetration": 1.5, "pile.initial_embedment": 1.0}),
         r"\[loading\]\.penetration = 1\.5: initial_embedment \+ penetration = 2\.5 m exceeds the pile length",
     ),
-    "tip beyond the soil depth": (
-        _preset(**{"loading.penetration": 28.0, "pile.length": 29.0}),
+    "tip beyond the soil depth": (  # (a fixed grid: in the pile's frame the base never nears the bottom)
+        _preset(**{"loading.penetration": 28.0, "pile.length": 29.0, "domain.frame": "laboratory"}),
         r"\[loading\]\.penetration = 28\.0: .*soil_depth = 28",
     ),
     "fine zone narrower than the pile": (

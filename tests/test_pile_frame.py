@@ -189,7 +189,6 @@ def test_pile_frame_through_a_scenario_reports_laboratory_depths(tmp_path):
 @pytest.mark.parametrize(
     ("domain", "needle"),
     [
-        ({"frame": "pile", "void_height": 0.02}, "[domain].void_height = 0.02: in the pile's frame"),
         ({"frame": "pile", "pile": False}, '[domain].frame = "pile": the pile\'s frame needs a [pile]'),
     ],
 )
@@ -243,7 +242,7 @@ def test_rim_treatment_is_a_scenario_key_of_the_axisymmetric_mode():
     d["contact"] = {"rim": "split"}
     backend = build_backend(scenario_from_dict(d))
     assert backend.contact.rim == "split" and backend.field._inflow is not None
-    d["domain"].update(symmetry="quarter", frame="laboratory")
+    d["domain"].update(symmetry="quarter", frame="laboratory", layout="tensor")
     with pytest.raises(ScenarioError) as err:
         scenario_from_dict(d)
     assert '[contact].rim = "split": an option of symmetry = "axisymmetric"' in str(err.value)

@@ -449,7 +449,7 @@ def test_the_energy_panel_shows_every_checked_value_and_marks_the_start(tmp_path
         (["run", "{bad}"], "invalid TOML"),
         (["run", "{bad}", "--duration", "0"], "--duration = 0: must be a positive number"),
         (["demo", "--velocity", "0"], "--velocity = 0: must be a positive number"),
-        (["demo", "--penetration", "40"], "--penetration = 40.0: initial_embedment + penetration = 40 m: the tip would reach or pass the base"),
+        (["demo", "--penetration", "40"], "--penetration = 40.0: initial_embedment + penetration = 40 m exceeds the pile length 10 m"),
     ],
 )  # fmt: skip
 def test_user_errors_are_one_line_and_exit_2_before_any_computing(tmp_path, monkeypatch, args, needle):
@@ -485,10 +485,10 @@ def _tiny_variant_dict(
     """The benchmark's variant scenario on the tiny test domain (half the preset's cell size at the pile):
     the reuse logic is the same, the run takes seconds instead of a minute."""
     from geocel.benchmark.deeks_white import variant_name
-    from geocel.benchmark.presets import RESOLUTIONS
+    from geocel.benchmark.presets import CARTESIAN_RESOLUTIONS
 
     d = _pile(**{"loading.penetration": penetration, "loading.velocity": velocity,
-                 "domain.fine_size": RESOLUTIONS[resolution]["fine_size"] / 2})  # fmt: skip
+                 "domain.fine_size": CARTESIAN_RESOLUTIONS[resolution]["fine_size"] / 2})  # fmt: skip
     d["name"] = variant_name(kind, S, velocity_factor)
     d["pile"]["type"] = kind
     d["scaling"] = {"mass_gravity": float(S), "velocity_factor": float(velocity_factor)}

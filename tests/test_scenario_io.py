@@ -179,7 +179,9 @@ def test_missing_reference_file_is_an_error(tmp_path: Path):
 def test_defaults_and_optional_tables():
     s = scenario_from_dict(tomllib.loads(MINIMAL))
     assert s.pile is None and s.reference is None
-    assert s.domain == Domain()
+    # without a pile the grid is the tensor product in the laboratory's frame (the cylindrical layout and the
+    # pile's frame are a pile's defaults)
+    assert s.domain == Domain(layout="tensor", frame="laboratory")
     assert s.contact.friction is None
     assert s.scaling.mass_gravity == 1.0
 

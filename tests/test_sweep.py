@@ -180,7 +180,7 @@ def test_a_bad_study_is_one_line_naming_the_case_and_the_key(data, needles):
         assert needle in line
 
 
-def test_the_base_may_be_a_file_or_a_preset_and_the_fine_zone_follows_the_penetration(tmp_path):
+def test_the_base_may_be_a_file_or_a_preset_and_the_grid_follows_the_penetration(tmp_path):
     (tmp_path / "sub").mkdir()
     (tmp_path / "sub" / "tiny.toml").write_text(tomli_w.dumps({"name": "tiny", **TINY}))
     study = tmp_path / "study.toml"
@@ -193,7 +193,9 @@ def test_the_base_may_be_a_file_or_a_preset_and_the_fine_zone_follows_the_penetr
             "vary": {"loading.penetration": [1.0, 2.0]},
         }
     )
-    assert [c.scenario.domain.fine_depth for c in s.cases()] == [3.0, 4.0]
+    # the preset's grid moves with the pile's base: its fine rows stay 1.5 m below the base, its void holds the
+    # penetration (varied) above the 1 m left for the heave
+    assert [(c.scenario.domain.fine_depth, c.scenario.grid_void_height()) for c in s.cases()] == [(1.5, 2.0), (1.5, 3.0)]
     assert {c.scenario.loading.velocity for c in s.cases()} == {0.5}
     assert s.depths_for(2.0) == [1.0, 2.0]
 

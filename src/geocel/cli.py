@@ -256,9 +256,10 @@ def demo(
     penetration: Annotated[float, typer.Option(help="penetration, m")] = 3.0,
     velocity: Annotated[float, typer.Option(help="jacking velocity, m/s")] = 0.5,
 ) -> None:
-    """Embedded default job: the Deeks & White pile, beam–volume coupled, MGS S = 10, demo resolution (0.2 m
-    cells at the pile), jacked 3 m. The jacking is faster than the centrifuge's 2 cm/s (0.5 m/s by default);
-    the run's own kinetic/internal energy check says whether that is still quasi-static."""
+    """Embedded default job: the Deeks & White pile, beam–volume coupled, MGS S = 10, on the preset's 3D quarter
+    model (the cylindrical layout in the pile's frame) at the demo resolution (0.15 m cells at the pile, 2 per
+    pile radius), jacked 3 m. The jacking is faster than the centrifuge's 2 cm/s (0.5 m/s by default); the run's
+    own inertia check says whether that is still quasi-static."""
     from .benchmark.plots import cell_average, plot_run, value_at_depth
     from .benchmark.presets import RESOLUTIONS, preset_dict, scenario_from_options
     from .io.history import read_history
@@ -290,20 +291,19 @@ def demo(
 @app.command("preset")
 def preset_cmd(
     name: Annotated[str, typer.Argument(help="scenario preset (deeks-white)")],
-    resolution: Annotated[str | None, typer.Option(help="demo | coarse | paper")] = None,
+    resolution: Annotated[
+        str | None, typer.Option(help="demo | coarse | paper (3D: 2, 2, 3 cells per pile radius; r–z: 6, 12, 24)")
+    ] = None,
     symmetry: Annotated[
         str | None,
         typer.Option(
-            help="quarter | half | full | axisymmetric (r–z, rigid pile, in the pile's frame: 6/12/24 cells per "
-            "pile radius at demo/coarse/paper, S = 10 at 0.05 m/s, 1 m)"
+            help="quarter (the preset's) | half | full (a Cartesian grid) | axisymmetric (r–z, rigid pile, S = 10 "
+            "at 0.05 m/s, 1 m)"
         ),
     ] = None,
     layout: Annotated[
         str | None,
-        typer.Option(
-            help="tensor | nested | cylindrical (3D: the r–z model's pile's frame, corner and sand and its "
-            "resolutions on the cylindrical layout, a quarter or --symmetry half; experimental)"
-        ),
+        typer.Option(help="3D grid: cylindrical (the preset's) | tensor | nested (Cartesian, laboratory frame)"),
     ] = None,
 ) -> None:
     """Print a scenario preset as TOML (``geocel preset deeks-white > my.toml``)."""
@@ -315,8 +315,7 @@ def preset_cmd(
         else:
             import tomli_w
 
-            rz_model = symmetry == "axisymmetric" or layout == "cylindrical"
-            quick = AXISYMMETRIC_QUICK if rz_model else {}
+            quick = AXISYMMETRIC_QUICK if symmetry == "axisymmetric" else {}
             d = preset_dict(
                 name,
                 resolution=resolution,
@@ -331,44 +330,29 @@ def preset_cmd(
             if quick:
                 res = resolution or "demo"
                 cells = round(0.5 * d["pile"]["diameter"] / d["domain"]["fine_size"])
-                cyl = layout == "cylindrical"
                 text = _AXISYMMETRIC_HEADER.format(
                     res=res, cells=cells, pen=quick["penetration"], v=quick["velocity"], S=quick["mass_gravity"],
-                    runtime=(_CYLINDRICAL_RUNTIME if cyl else _AXISYMMETRIC_RUNTIME)[res],
-                    mode=f"3D cylindrical layout ({d['domain']['symmetry']} model)" if cyl else "axisymmetric (r–z) mode",
-                    scope=_CYLINDRICAL_SCOPE if cyl else _AXISYMMETRIC_SCOPE,
+                    runtime=_AXISYMMETRIC_RUNTIME[res],
                 ) + text  # fmt: skip
     sys.stdout.write(text)
 
 
 _AXISYMMETRIC_HEADER = """\
-# The Deeks & White pile in the {mode} at the {res} resolution ({cells} cells per pile radius): a rigid
-# flat-based pile (D = 0.6 m) in the centrifuge's container (radius 21.25 m, 28 m deep), jacked {pen:g} m at {v:g} m/s
-# with MGS S = {S:g}. The model is that of the grid study in docs/validation.md: the grid moves down with the
-# pile's base ([domain] frame = "pile": soil_depth and fine_depth are measured below the base's start, the void
-# holds the penetration and the heave), the node under the pile's corner is split ([contact] rim = "corner", the
-# default in that frame), and the sand is non-local with the internal length [soil] nonlocal_length = 0.1 m.
+# The Deeks & White pile in the axisymmetric (r–z) mode at the {res} resolution ({cells} cells per pile radius): a
+# rigid flat-based pile (D = 0.6 m) in the centrifuge's container (radius 21.25 m, 28 m deep), jacked {pen:g} m at
+# {v:g} m/s with MGS S = {S:g}. The preset's model: the grid moves down with the pile's base ([domain] frame =
+# "pile": soil_depth and fine_depth are measured below the base's start, the void holds the penetration and the
+# heave), the node under the pile's corner is split ([contact] rim = "corner", the default in that frame), and the
+# sand is non-local with the internal length [soil] nonlocal_length = 0.1 m.
 # Runtime: {runtime}
-# {scope}
+# Vertical loading only: no bending, lateral load or pile groups (use the 3D symmetries for those).
 """
-_AXISYMMETRIC_SCOPE = "Vertical loading only: no bending, lateral load or pile groups (use the 3D symmetries for those)."
-_CYLINDRICAL_SCOPE = (
-    "Experimental (docs/numerics.md, \"The cylindrical layout\"): the pile on the axis, the axis held laterally;\n"
-    "# for a vertical load it reproduces the r–z model (docs/validation.md), at several times its cost."
-)
 #: measured runtimes of the r–z preset as printed (one thread, Numba cache warm), by resolution
 _AXISYMMETRIC_RUNTIME = {
     "demo": "18 min measured on one thread (the other core busy), Numba cache warm\n"
     "# (4 929 soil cells, 280 637 steps); q_b 2.87 MPa and q_s 1.18 kPa at 1 m, inertia check valid.",
     "coarse": "about 6x the demo's 18 min (cells x steps, estimate).",
     "paper": "about 35x the demo's 18 min (cells x steps, estimate): a job for a bigger machine.",
-}
-#: the same for the cylindrical layout: the r–z preset's times × the cost ratio measured at 6 cells per radius
-#: (docs/validation.md, "The cylindrical layout": 13.6× r–z over 1 m at 0.5 m/s)
-_CYLINDRICAL_RUNTIME = {
-    "demo": "about 14x the r–z preset's 18 min on one thread (estimate from the measured ratio): ≈ 4 h.",
-    "coarse": "about 14x the r–z coarse preset's (estimate), more with its 16 sectors: a job for a bigger machine.",
-    "paper": "about 14x the r–z paper preset's (estimate), more with its 32 sectors: a job for a bigger machine.",
 }
 
 
@@ -378,7 +362,7 @@ def benchmark(
     resolution: Annotated[
         str,
         typer.Option(
-            help="demo | coarse | paper (r–z and the cylindrical layout: 6, 12, 24 cells per pile radius)"
+            help="demo | coarse | paper (3D: 2, 2, 3 cells per pile radius; r–z: 6, 12, 24)"
         ),
     ] = "demo",
     symmetry: Annotated[
@@ -390,8 +374,8 @@ def benchmark(
     layout: Annotated[
         str | None,
         typer.Option(
-            help="3D grid of the quarter model: tensor (the preset's) | nested | cylindrical (experimental: the "
-            "r–z model's grids, frame, corner and sand round the pile's axis; r–z's resolutions and inertia limits)"
+            help="3D grid of the quarter model: cylindrical (the preset's, in the pile's frame) | tensor | nested "
+            "(Cartesian, the laboratory's frame, the 3D inertia limits)"
         ),
     ] = None,
     penetration: Annotated[float, typer.Option(help="penetration, m")] = 3.0,

@@ -1,9 +1,9 @@
 """The Deeks & White (2006) centrifuge benchmark: the 9 variants (conventional / coupled / rigid × S = 1, 10,
 100) as independent tasks on dask.distributed, then one figure, a table (Markdown + CSV) and a report. The
-model is the 3D quarter model (``symmetry="quarter"``), the axisymmetric r–z model (``"axisymmetric"``: the
-grids of :data:`~geocel.benchmark.presets.AXISYMMETRIC_RESOLUTIONS`, the r–z inertia limits), or the 3D quarter
-model on the cylindrical layout (``layout="cylindrical"``, experimental: the r–z model's grids, frame, corner and
-sand turned round the pile's axis, the r–z inertia limits).
+model is the preset's (:mod:`geocel.benchmark.presets`): the 3D quarter model on the cylindrical layout in the
+pile's frame (``symmetry="quarter"``), the axisymmetric r–z model (``"axisymmetric"``: the grids of
+:data:`~geocel.benchmark.presets.AXISYMMETRIC_RESOLUTIONS`), both with the r–z inertia limits, or the quarter model
+on a Cartesian grid (``layout="tensor"`` or ``"nested"``, the laboratory's frame, the 3D inertia limits).
 
 Each variant is a normal run directory under ``out/<variant>``. Before any computing (and before the dask
 cluster starts) every option is checked and every existing variant directory is compared with the requested
@@ -32,7 +32,13 @@ from ..config.scenario import Scenario
 from ..io.history import read_history
 from ..solver.quasi_static import inertia_limits, inertia_verdict
 from .plots import cell_average, plot_curves, value_at_depth, verdict
-from .presets import AXISYMMETRIC_RESOLUTIONS, RESOLUTIONS, preset_dict, scenario_from_options
+from .presets import (
+    AXISYMMETRIC_RESOLUTIONS,
+    CARTESIAN_RESOLUTIONS,
+    RESOLUTIONS,
+    preset_dict,
+    scenario_from_options,
+)
 
 KINDS = {"solid": "conventional", "coupled": "coupled", "rigid": "rigid"}
 #: names accepted for a pile kind in ``--variants`` (the table's own name of the solid pile included)
@@ -42,7 +48,7 @@ SCALINGS = (1, 10, 100)
 S_RANGE = (1.0, 1.0e4)
 #: the models the benchmark runs: the 3D quarter model (the paper's) and the axisymmetric r–z model
 BENCHMARK_SYMMETRIES = ("quarter", "axisymmetric")
-#: the 3D grid layouts the benchmark's quarter model runs on (None: the preset's tensor product)
+#: the 3D grid layouts the benchmark's quarter model runs on (None: the preset's, cylindrical)
 BENCHMARK_LAYOUTS = ("tensor", "nested", "cylindrical")
 _HINT = "use another --out, or --rerun to set it aside and run the variant again"
 
@@ -106,14 +112,16 @@ def variant_name(kind: str, S: float, velocity_factor: float = 1.0) -> str:
 
 
 def rz_model(symmetry: str = "quarter", layout: str | None = None) -> bool:
-    """Whether the benchmark runs the r–z model's set-up (its grids, the pile's frame, the split corner, the
-    non-local sand and the r–z inertia limits): in r–z, or in 3D on the cylindrical layout."""
-    return symmetry == "axisymmetric" or layout == "cylindrical"
+    """Whether the benchmark runs on a ring geometry (the pile's frame, the split corner and the r–z inertia
+    limits): in r–z, or in 3D on the cylindrical layout (the default, ``layout`` None)."""
+    return symmetry == "axisymmetric" or layout in (None, "cylindrical")
 
 
 def resolutions_of(symmetry: str = "quarter", layout: str | None = None) -> dict[str, dict]:
     """The benchmark's resolutions (name → ``[domain]`` keys) of a model ``symmetry`` on a ``layout``."""
-    return AXISYMMETRIC_RESOLUTIONS if rz_model(symmetry, layout) else RESOLUTIONS
+    if symmetry == "axisymmetric":
+        return AXISYMMETRIC_RESOLUTIONS
+    return RESOLUTIONS if layout in (None, "cylindrical") else CARTESIAN_RESOLUTIONS
 
 
 def variant_dict(
@@ -343,7 +351,7 @@ def write_results(
     read is left out of the curves and the errors, and named in the report."""
     out = Path(out)
     rz = symmetry == "axisymmetric"
-    cylindrical = layout == "cylindrical"
+    cylindrical = not rz and layout in (None, "cylindrical")
     resolutions = resolutions_of(symmetry, layout)
     width = resolutions[resolution]["fine_size"] if resolution in resolutions else 0.0
     hist = {}
@@ -444,8 +452,8 @@ def write_results(
                 "# Deeks & White (2006) pile-jacking benchmark, 3D quarter model on the cylindrical layout"
             )
             setup = (
-                "The 3D quarter model on the cylindrical layout (experimental: the r–z model's grid turned round the "
-                "pile's axis, in the pile's frame with the split corner and the non-local sand, docs/numerics.md), "
+                "The 3D quarter model on the cylindrical layout (the r–z model's grid turned round the pile's axis, "
+                "in the pile's frame with the split corner and the non-local sand, docs/numerics.md), "
                 f"resolution `{resolution}`{cells}"
             )
             forces = "Forces of the quarter model are multiplied by 4 (symmetry); "

@@ -128,7 +128,12 @@ class Domain(_Table):
     radius: float = Field(21.25, gt=0.0, description="lateral extent from the pile axis, m")
     cylinder_mask: bool = Field(True, description="mask cells beyond `radius` (container wall), else a box")
     soil_depth: float = Field(26.0, gt=0.0, description="depth of soil below the surface, m")
-    void_height: float = Field(1.0, ge=0.0, description="height of the void above the surface (heave), m")
+    void_height: float = Field(
+        1.0,
+        ge=0.0,
+        description="height of the void above the surface (heave), m (in the pile's frame the grid adds the "
+        "penetration above it: the surface rises through the void as the grid moves down)",
+    )
     fine_size: float = Field(0.10, gt=0.0, description="cell size in the fine zone around the pile, m")
     fine_radius: float = Field(1.5, ge=0.0, description="radius of the fine zone, m")
     fine_depth: float = Field(12.0, ge=0.0, description="depth below the surface covered by the fine zone, m")
@@ -145,16 +150,17 @@ class Domain(_Table):
         1.15, ge=1.0, le=2.0, description="largest ratio of neighbouring cell sizes outside the fine zone, -"
     )
     max_size: float | None = Field(None, gt=0.0, description="largest cell size, m (None: no limit)")
-    layout: Literal["tensor", "nested", "cylindrical"] = Field(
-        "tensor",
-        description="3D grid layout: tensor (graded edges in x, y, z: the fine spacing runs through the whole "
-        "container in each direction), nested (2:1 columns: boxes of fine_size, 2 fine_size, 4 fine_size … "
-        "cells in plan around the axis, each `buffer` of its cells wider than the finer one, all on the graded "
-        'z edges; far fewer cells at the same fine size; docs/numerics.md, "Nested 2:1 columns") or cylindrical '
-        "(experimental: the r–z grid turned round the pile's axis in `theta_cells` sectors per quarter turn, "
-        "quarter and half models; the shaft is a node ring and the base a node row, so the r–z model's split "
-        "corner carries over, and a vertically loaded pile gives the r–z result; flat-based piles whose radius is "
-        'a multiple of fine_size; docs/numerics.md, "The cylindrical layout")',
+    layout: Literal["tensor", "nested", "cylindrical"] | None = Field(
+        None,
+        description="3D grid layout (omitted: cylindrical for a flat-based pile in a quarter or half model, else "
+        "tensor): cylindrical (the r–z grid turned round the pile's axis in `theta_cells` sectors per quarter turn, "
+        "quarter and half models; the shaft is a node ring and the base a node row, so the r–z model's split corner "
+        "carries over, and a vertically loaded pile gives the r–z result; flat-based piles whose radius is a multiple "
+        'of fine_size; docs/numerics.md, "The cylindrical layout"), tensor (graded edges in x, y, z: the fine spacing '
+        "runs through the whole container in each direction; any pile tip and full models, but its base's rim does "
+        "not converge: docs/numerics.md, \"Numerical options\") or nested (2:1 columns: boxes of fine_size, "
+        "2 fine_size, 4 fine_size … cells in plan around the axis, each `buffer` of its cells wider than the finer "
+        'one, all on the graded z edges; docs/numerics.md, "Nested 2:1 columns")',
     )
     theta_cells: int | None = Field(
         None,
@@ -171,18 +177,19 @@ class Domain(_Table):
         le=32,
         description="nested layout: cells of each coarser level around the finer level's box, -",
     )
-    frame: Literal["laboratory", "pile"] = Field(
-        "laboratory",
-        description="the grid's frame: laboratory (fixed; the pile's base moves through the node rows) or pile "
-        "(the grid moves down with the pile's base, which stays on its node row, and "
-        "undisturbed soil flows in through the bottom; soil_depth and fine_depth are then measured below the "
-        "base's start, and void_height must hold the penetration plus the heave; experimental in 3D: its q_b "
-        "there reaches the r–z model's from below only at fine cells, docs/validation.md)",
+    frame: Literal["laboratory", "pile"] | None = Field(
+        None,
+        description="the grid's frame (omitted: pile for a pile on the cylindrical layout or in r–z, else "
+        "laboratory): pile (the grid moves down with the pile's base, which stays on its node row, and undisturbed "
+        "soil flows in through the bottom; soil_depth and fine_depth are then measured below the base's start, and "
+        "the grid's void is void_height plus the penetration) or laboratory (fixed; the pile's base moves through the node rows). On the Cartesian layouts the "
+        "pile's frame is experimental: its q_b reaches the r–z model's from below only at fine cells "
+        '(docs/numerics.md, "Numerical options")',
     )
 
     @model_validator(mode="after")
     def _check(self) -> Domain:
-        if self.layout != "tensor" and self.symmetry == "axisymmetric":
+        if self.layout not in (None, "tensor") and self.symmetry == "axisymmetric":
             raise _invalid(
                 ("layout",),
                 self.layout,
@@ -596,6 +603,7 @@ class Scenario(_Table):
 
     @model_validator(mode="after")
     def _check(self) -> Scenario:
+        self._resolve_model_defaults()
         if self.domain.frame == "pile" and "remap_courant" not in self.solver.model_fields_set:
             # the whole soil flows through a grid that moves with the pile: a deferred remap's disturbance (a
             # fixed one per remap_courant of a cell, whatever the speed) then shakes all of it, and slow jacking
@@ -645,6 +653,19 @@ class Scenario(_Table):
                     "required for an elastic soil (no friction angle for the default)",
                 )
         return self
+
+    def _resolve_model_defaults(self) -> None:
+        """The grid's layout, frame and void where the scenario leaves them out: the set-up whose q_b converges
+        (docs/numerics.md, "Numerical options"). A pile in 3D gets the cylindrical layout unless it needs a
+        Cartesian grid (a conical tip, a full model), and a pile on a ring geometry (cylindrical, r–z) the pile's
+        frame."""
+        d, pile = self.domain, self.pile
+        if d.layout is None:
+            cartesian = d.symmetry == "full" or pile is None or pile.tip != "flat"
+            d.layout = "tensor" if d.symmetry == "axisymmetric" or cartesian else "cylindrical"
+        if d.frame is None:
+            ring = d.symmetry == "axisymmetric" or d.layout == "cylindrical"
+            d.frame = "pile" if pile is not None and ring else "laboratory"
 
     def _check_void_ratios(self) -> None:
         """Each layer's e0 inside [e_d, e_i] at its geostatic stress (see :meth:`Soil.void_ratio_limits`)."""
@@ -696,24 +717,15 @@ class Scenario(_Table):
                 f"nested layout: must be ≥ {need:g} m, the pile radius and four cells of fine_size (the finest "
                 "level must hold the pile and its contact)",
             )
-        height = dom.soil_depth + dom.void_height
+        height = dom.soil_depth + self.grid_void_height()
         if pile.length > height:
             raise _invalid(
                 ("pile", "length"),
                 pile.length,
                 f"longer than the domain is high (soil_depth + void_height = {height:g} m)",
             )
-        tip = pile.initial_embedment + self.loading.penetration
-        if dom.frame == "pile":  # the grid moves with the base: the base never nears the grid's bottom, but
-            # the ground surface rises through the void by the penetration
-            tip = pile.initial_embedment
-            if self.loading.penetration > dom.void_height:
-                raise _invalid(
-                    ("domain", "void_height"),
-                    dom.void_height,
-                    f"in the pile's frame the surface rises by the penetration ({self.loading.penetration:g} m) "
-                    "through the void: void_height must hold it plus the heave (about one diameter more)",
-                )
+        # in the pile's frame the grid moves with the base, which never nears the grid's bottom
+        tip = pile.initial_embedment + (self.loading.penetration if dom.frame != "pile" else 0.0)
         if tip >= dom.soil_depth:
             raise _invalid(
                 ("loading", "penetration"),
@@ -746,8 +758,15 @@ class Scenario(_Table):
                 ("domain", "fine_size"),
                 dom.fine_size,
                 f"the pile radius {a:g} m must lie on a node line of the grid ({mode}): fine_size must be "
-                f"radius/n for a whole n (cells per pile radius), e.g. {fits} (n = 2 … 6)",
+                f"radius/n for a whole n (cells per pile radius), e.g. {fits} (n = 2 … 6)"
+                + ('; [domain] layout = "tensor" takes any fine_size' if dom.layout == "cylindrical" else ""),
             )
+
+    def grid_void_height(self) -> float:
+        """Height of the grid above the initial surface, m: ``void_height``, plus the penetration in the pile's
+        frame (the grid moves down with the pile's base, so the surface rises through the void by it)."""
+        d = self.domain
+        return d.void_height + (self.loading.penetration if d.frame == "pile" and self.pile is not None else 0.0)
 
     def friction_coefficient(self) -> float:
         """Soil–pile Coulomb friction μ, - (``[contact].friction`` or tan(2/3 φ_c))."""

@@ -63,7 +63,7 @@ def rz_grid(scenario: Scenario):
     return AxisymmetricGrid.graded(
         radius=d.radius,
         soil_depth=d.soil_depth,
-        void_height=d.void_height,
+        void_height=scenario.grid_void_height(),
         fine_size=d.fine_size,
         fine_radius=d.fine_radius,
         fine_depth=d.fine_depth,

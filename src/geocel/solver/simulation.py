@@ -60,8 +60,8 @@ from .writers import (  # noqa: F401  (HISTORY_*, history_preamble: re-exported,
 #: version of the checkpoint metadata (2: with the scenario, status, phase times and governing element; 3: with
 #: the state of every callback, ``callbacks``, and the step they last ran for, ``outputs_step``)
 CHECKPOINT_FORMAT = 3
-#: tip depth (m) below which the 3D q_b was found not grid-converged (docs/validation.md, "To 9 m": within 5 %
-#: of r–z to about 2 m at 3 cells per pile radius, then diverging); a 3D pile run deeper gets a note
+#: tip depth (m) below which the Cartesian grids' q_b was found not grid-converged (docs/validation.md, "To 9 m":
+#: within 5 % of r–z to about 2 m at 3 cells per pile radius, then diverging); a pile run on them deeper gets a note
 UNCONVERGED_3D_DEPTH = 2.0
 #: fine cells per internal length below which the non-local sand is as mesh-dependent as the local one
 #: (docs/numerics.md, "Which l": q_b moved 7.4 % from one to two cells per l, 2.7 % from two to four); a run gets a note
@@ -75,7 +75,7 @@ def build_grid(scenario: Scenario) -> Grid:
     return Grid.graded(
         radius=d.radius,
         depth=d.soil_depth,
-        void=d.void_height,
+        void=scenario.grid_void_height(),
         fine=d.fine_size,
         fine_radius=d.fine_radius,
         fine_depth=d.fine_depth,
@@ -103,7 +103,7 @@ def build_layout(scenario: Scenario) -> NestedColumns:
     ``fine_radius`` (rounded up to whole cells of level 1), ``buffer`` cells of each coarser level around the
     finer, on the graded z edges of the tensor-product grid."""
     d = scenario.domain
-    z = graded_z(d.soil_depth, d.void_height, d.fine_size, d.fine_depth, d.growth, d.max_size, d.fine_height)
+    z = graded_z(d.soil_depth, scenario.grid_void_height(), d.fine_size, d.fine_depth, d.growth, d.max_size, d.fine_height)
     return NestedColumns.around_axis(
         d.radius, z, d.fine_size, d.fine_radius, buffer=d.buffer, max_size=d.max_size, symmetry=d.symmetry,
         cylinder_mask=d.cylinder_mask,
@@ -252,18 +252,11 @@ class Simulation:
             tip = scenario.pile.initial_embedment + ld.penetration
             if tip > UNCONVERGED_3D_DEPTH:
                 self.notes.append(
-                    f"the tip goes to {tip:g} m: in 3D (the laboratory's frame) q_b below about "
-                    f"{UNCONVERGED_3D_DEPTH:g} m is not grid-converged at the cells affordable on a workstation "
-                    '(docs/validation.md, "To 9 m"); for a vertically loaded pile the r–z model '
-                    '([domain] symmetry = "axisymmetric") converges to 9 m'
+                    f"the tip goes to {tip:g} m: on a Cartesian grid (layout = \"{scenario.domain.layout}\") q_b "
+                    f"below about {UNCONVERGED_3D_DEPTH:g} m is not grid-converged at the cells affordable on a "
+                    'workstation (docs/validation.md, "To 9 m"); the cylindrical layout (the default for a '
+                    "flat-based pile in a quarter or half model) and the r–z model converge"
                 )
-        if scenario.domain.layout == "cylindrical":
-            self.notes.append(
-                "the cylindrical layout is experimental: its soil step and pile contact reproduce the r–z model's to "
-                "round-off when nothing depends on θ (tests/test_cylindrical.py); for motions that vary round the "
-                "axis its tied sectors and its non-local mean are first approximations, not measured yet "
-                '(docs/numerics.md, "The cylindrical layout")'
-            )
         length = getattr(scenario.soil.material, "nonlocal_length", 0.0)
         if 0.0 < length < MIN_CELLS_PER_LENGTH * scenario.domain.fine_size:
             self.notes.append(
