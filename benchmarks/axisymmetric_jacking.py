@@ -32,8 +32,8 @@ from geocel.config.materials import MohrCoulomb
 from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
 from geocel.grid.axisym import AxisymmetricGrid
 from geocel.solver.axisym_field import AxisymmetricField
+from geocel.solver.build import solver_settings
 from geocel.solver.field import SolverSettings
-from geocel.solver.simulation import solver_settings
 
 RADIUS = 0.3  # m, pile radius (D = 0.6 m)
 #: ``--soil mohr-coulomb``: a non-associated Mohr–Coulomb sand (e0 = 0.6)

@@ -20,7 +20,8 @@ from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
 from geocel.grid.axisym import AxisymmetricGrid
 from geocel.io.history import read_history
 from geocel.solver.axisym_field import AxisymmetricField
-from geocel.solver.simulation import Simulation, solver_settings
+from geocel.solver.build import solver_settings
+from geocel.solver.simulation import Simulation
 
 E0 = 0.7
 GRAIN = 2650.0

@@ -20,8 +20,9 @@ from geocel.contact.cylindrical import CylindricalPileContact
 from geocel.grid.axisym import AxisymmetricGrid
 from geocel.grid.cylindrical import CylindricalGrid
 from geocel.io.history import read_history
+from geocel.solver.build import solver_settings
 from geocel.solver.cylindrical_field import CylindricalField
-from geocel.solver.simulation import Simulation, solver_settings
+from geocel.solver.simulation import Simulation
 from test_axisymmetric_scenario import E0, scenario_dict
 
 pytestmark = pytest.mark.usefixtures("one_thread")

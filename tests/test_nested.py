@@ -240,7 +240,7 @@ def _stir(f: CompositeField, speed: float, dt: float, remaps: int) -> None:
             )
         for lvl in f.levels:
             lvl.u_remap[...] = lvl.v * dt
-        f._remap(None)
+        f._remap(0.0, None)
 
 
 def test_remap_across_interfaces_conserves_mass_and_content_to_round_off():
@@ -352,7 +352,7 @@ def test_a_jacked_pile_on_nested_columns_runs_restarts_and_writes_every_level(tm
 
 
 def test_the_pile_must_stay_inside_the_finest_level():
-    from geocel.solver.simulation import build_field
+    from geocel.solver.build import build_field
 
     sc = _pile_scenario("nested")
     sc.domain.fine_radius = 0.2

@@ -67,6 +67,30 @@ class RunCurves:
         return float(self.depth.max()) if self.depth.size else math.nan
 
 
+def read_reference(path: str | Path) -> pd.DataFrame:
+    """A measured curve: CSV with numeric ``depth_m``, ``qb_MPa`` (and optionally ``qs_kPa``) columns;
+    ``ValueError`` naming the file and what is wrong otherwise."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"--reference = {str(path)!r}: file not found")
+    try:
+        ref = pd.read_csv(path, comment="#")
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as err:
+        reason = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise ValueError(f"--reference = {str(path)!r}: not a readable CSV ({reason})") from None
+    need = ["depth_m", "qb_MPa"]
+    missing = [c for c in need if c not in ref.columns]
+    if missing:
+        raise ValueError(
+            f"--reference = {str(path)!r}: no column {', '.join(missing)} (columns: {', '.join(map(str, ref.columns))}; "
+            "expected depth_m, qb_MPa[, qs_kPa])"
+        )
+    for c in [*need, *(["qs_kPa"] if "qs_kPa" in ref.columns else [])]:
+        if not pd.api.types.is_numeric_dtype(ref[c]) or len(ref) < 2:
+            raise ValueError(f"--reference = {str(path)!r}: column {c} must hold at least two numbers")
+    return ref
+
+
 def read_curves(path: str | Path, label: str | None = None) -> RunCurves:
     """The curves of a run directory (``history.csv``, cell size from ``config.toml``) or of a measured CSV
     (``depth_m, qb_MPa[, qs_kPa]``). ``ValueError`` naming the path when neither can be read."""
@@ -76,8 +100,6 @@ def read_curves(path: str | Path, label: str | None = None) -> RunCurves:
     path = Path(path)
     label = label or (path.stem if path.is_file() else path.name)
     if path.is_file():
-        from ..benchmark.deeks_white import read_reference
-
         ref = read_reference(path).sort_values("depth_m")
         qs = ref["qs_kPa"].to_numpy(float) * 1e3 if "qs_kPa" in ref else np.full(len(ref), np.nan)
         return RunCurves(

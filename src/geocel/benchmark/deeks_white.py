@@ -26,7 +26,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..analysis.compare import mpe
+from ..analysis.compare import mpe, read_reference
 from ..batch import dask_client, run_in_directory, run_state, run_tasks
 from ..config.scenario import Scenario
 from ..io.history import read_history
@@ -80,30 +80,6 @@ def parse_variants(text: str) -> list[tuple[str, float]]:
             )
         out.append((KIND_NAMES[kind], S))
     return list(dict.fromkeys(out))
-
-
-def read_reference(path: str | Path) -> pd.DataFrame:
-    """A measured curve: CSV with numeric ``depth_m``, ``qb_MPa`` (and optionally ``qs_kPa``) columns;
-    ``ValueError`` naming the file and what is wrong otherwise."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"--reference = {str(path)!r}: file not found")
-    try:
-        ref = pd.read_csv(path, comment="#")
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as err:
-        reason = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-        raise ValueError(f"--reference = {str(path)!r}: not a readable CSV ({reason})") from None
-    need = ["depth_m", "qb_MPa"]
-    missing = [c for c in need if c not in ref.columns]
-    if missing:
-        raise ValueError(
-            f"--reference = {str(path)!r}: no column {', '.join(missing)} (columns: {', '.join(map(str, ref.columns))}; "
-            "expected depth_m, qb_MPa[, qs_kPa])"
-        )
-    for c in [*need, *(["qs_kPa"] if "qs_kPa" in ref.columns else [])]:
-        if not pd.api.types.is_numeric_dtype(ref[c]) or len(ref) < 2:
-            raise ValueError(f"--reference = {str(path)!r}: column {c} must hold at least two numbers")
-    return ref
 
 
 def variant_name(kind: str, S: float, velocity_factor: float = 1.0) -> str:

@@ -842,6 +842,9 @@ class AxisymmetricPileContact:
         shaft = np.array([0.0, 0.0, out[3]])
         return ContactLoad(scale * layer, scale * base, scale * shaft, scale * tied, dt)
 
+    def after_remap(self) -> None:
+        """Nothing after the remap (:meth:`before_remap` keeps the soil out of the pile)."""
+
     def before_remap(self, displacement: np.ndarray) -> None:
         """No inward mesh motion through the shaft's faces (u_r ≥ 0 on the shaft column from the base row
         up), so the remap cannot carry soil into the pile (module docstring)."""

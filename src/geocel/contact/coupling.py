@@ -255,6 +255,9 @@ class ContactCoupling:
         e["gravity_work"] += dw[3]
         e["external_work"] += dw[3] + w_soil
 
+    def before_remap(self, displacement: np.ndarray) -> None:
+        """Nothing before the remap (the ring contacts align the mesh motion with the pile there)."""
+
     def after_remap(self) -> None:
         """Move soil that the remap left inside the pile's volume out of it (mass, stress and state go with
         it; nodal momentum is kept), so the soil stays out of the pile (:func:`exclude_soil`)."""

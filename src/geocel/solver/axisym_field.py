@@ -1,10 +1,7 @@
-"""The axisymmetric (r–z) Eulerian soil field: arrays, geostatic state, Mass-Gravity-Scaling, one step.
-
-Standalone driver of the axisymmetric soil step (issue 17, first increment; not yet wired into
-:class:`geocel.solver.simulation.Simulation`). It mirrors :class:`geocel.solver.field.SoilField`: the same
-settings (:class:`~geocel.solver.field.SolverSettings`), the same soil models and MGS, the same deferred
-remap (``remap_courant``; ``np.inf`` keeps the material on its grid, a small-strain analysis). Kernels:
-:mod:`geocel.euler.axisym` (Lagrangian phase) and :mod:`geocel.euler.axisym_remap` (remap).
+"""The axisymmetric (r–z) Eulerian soil field: its arrays and what the r–z geometry supplies to the soil step
+written once in :class:`geocel.solver.field.EulerianField` (the same settings, soil models, MGS, deferred remap and
+pile's frame as every geometry): the kernels of :mod:`geocel.euler.axisym` (Lagrangian phase, multi-rate levels,
+the non-local mean) and :mod:`geocel.euler.axisym_remap` (remap).
 
 Everything extensive is **per radian** (volumes r_c h_r h_z, masses, forces, energies; × 2π for the ring).
 Node arrays are (nr+1, nz+1[, 2]) with components (r, z); cell arrays (nr, nz[, k]); stresses are 3D
@@ -13,9 +10,7 @@ Node arrays are (nr+1, nz+1[, 2]) with components (r, z); cell arrays (nr, nz[, 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
-from time import perf_counter
 
 import numpy as np
 from numba import get_num_threads, njit
@@ -40,12 +35,10 @@ from ..materials.tensor import KERNEL_OPTIONS
 from .field import (
     E_MAX,
     E_MIN,
-    FieldBalances,
-    InstabilityError,
+    EulerianField,
     Material,
     SolverSettings,
     node_spacing,
-    runaway_nodes,
 )
 
 
@@ -73,29 +66,8 @@ def _trailing_zeros(phase: int, levels: int) -> int:
     return min((phase & -phase).bit_length() - 1, levels)
 
 
-@njit(**KERNEL_OPTIONS)
-def _kinetic_energy_rz(nmass, v):
-    """½ Σ m |v|² over the nodes (J/rad)."""
-    n1, n2 = nmass.shape
-    s = 0.0
-    for i in range(n1):
-        for k in range(n2):
-            s += nmass[i, k] * (v[i, k, 0] * v[i, k, 0] + v[i, k, 1] * v[i, k, 1])
-    return 0.5 * s
-
-
-@njit(**KERNEL_OPTIONS)
-def _void_ratio_rz(Vs, volume, mass, state, grain_density):
-    """e = ρ_s V_s/m − 1 in every soil cell (after a remap, which carries mass and soil volume, not e)."""
-    n1, n2 = Vs.shape
-    for i in range(n1):
-        for k in range(n2):
-            if Vs[i, k] > PHI_MIN * volume[i, k] and mass[i, k] > 0.0:
-                state[i, k, 0] = grain_density * Vs[i, k] / mass[i, k] - 1.0
-
-
 @dataclass
-class AxisymmetricField(FieldBalances):
+class AxisymmetricField(EulerianField):
     """Soil in the r–z plane on an :class:`~geocel.grid.axisym.AxisymmetricGrid`.
 
     ``damping`` α (1/s): mass-proportional damping −α m v for quasi-static checks (dynamic relaxation), 0 in a
@@ -116,7 +88,7 @@ class AxisymmetricField(FieldBalances):
         nshape = (g.nr + 1, g.nz + 1)
         self.nstate = len(self.material.state_names)
         self.r, self.hr, self.hz, self.rc = g.r, g.hr, g.hz, g.rc
-        self.volume = g.cell_volumes()
+        self.volume = np.ascontiguousarray(g.cell_volumes())
         self.active = np.ones(shape, dtype=np.bool_)
         self.Vs = np.zeros(shape)
         self.Vcur = self.volume.copy()
@@ -151,6 +123,9 @@ class AxisymmetricField(FieldBalances):
         # the step at which the current multi-rate cycle's non-local values were all computed (−1: none)
         self._nonlocal_cycle = -1
         self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / node_spacing(g.hz))
+        self._reciprocal_axes = (0, 1)
+        #: each cell's length L_e of the stable step (:func:`characteristic_length_rz`), m
+        self._cell_lengths = characteristic_length_rz(g.hr[:, None], g.hz[None, :])
         self._init_bookkeeping()
         #: contact with a pile (:class:`geocel.contact.axisym.AxisymmetricPileContact`), applied to the trial
         #: velocities of every step
@@ -175,162 +150,48 @@ class AxisymmetricField(FieldBalances):
         # the columns of the non-local mean per level of the step (_multirate_cycle)
         self._nonlocal_columns = np.full(max(self.settings.multirate_levels, 0) + 1, g.nr, dtype=np.int64)
 
-    # --- initial state ------------------------------------------------------------------------------------------
-    def fill_below(self, surface: float = 0.0) -> None:
-        """Soil in every cell below z = ``surface`` (cells cut by it are partially filled)."""
-        frac = np.clip((surface - self.grid.z[:-1]) / self.hz, 0.0, 1.0)
-        self.Vs[...] = self.volume * frac[None, :]
-
-    def geostatic(
-        self, layers: list[tuple[float, float]], k0: float, intergranular: str = "vertical"
-    ) -> None:
-        """Void ratio per layer ``(top below surface, e0)``, densities, and the vertical stress in discrete
-        equilibrium with the lumped nodal gravity forces (σ_rr = σ_θθ = K0 σ_zz): per column, between the
-        cell a above and b below a node, φ_b σ_zz,b = φ_a σ_zz,a − g (μ_a + μ_b)/2 (μ = ρ φ h_z). The factor
-        r_c of the per-radian volumes cancels, and σ_rr = σ_θθ balances radially on any grading, so the
-        column is at rest to round-off."""
-        if not layers or layers[0][0] != 0.0:
-            raise ValueError("the first layer must start at the surface (top = 0)")
-        g = self.grid
-        depth = -g.zc
-        e0 = np.full(g.nz, layers[0][1])
-        for top, e in layers:
-            e0[depth >= top] = e
-        phi = self.Vs / self.volume
-        rho = self.grain_density / (1.0 + e0)
-        self.mass[...] = rho[None, :] * self.Vs
-        mu = rho[None, :] * phi * self.hz[None, :]
-        szz = np.zeros_like(self.Vs)
-        s = np.zeros(g.nr)
-        mu_above = np.zeros(g.nr)
-        for k in range(g.nz - 1, -1, -1):
-            s = s - self.gravity * 0.5 * (mu_above + mu[:, k])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                szz[:, k] = np.where(phi[:, k] >= PHI_MIN, s / np.maximum(phi[:, k], 1e-300), 0.0)
-            mu_above = mu[:, k]
-        self.stress[...] = 0.0
-        self.stress[..., 0] = k0 * szz
-        self.stress[..., 1] = k0 * szz
-        self.stress[..., 2] = szz
-        state0 = self.material.initial_state(float(layers[0][1]), intergranular)
-        self.state[...] = 0.0
-        self.state[..., : self.nstate] = state0
-        self.state[..., 0] = e0[None, :]
-        self.initialise()
-
-    def initialise(self) -> None:
-        """Nodal masses, the tiny-mass threshold, the initial mass and Δt from the current cell arrays (after
-        setting Vs, mass, stress and state by hand)."""
-        node_mass_rz(self.mass, self.nmass)
-        soil = self.Vs > PHI_MIN * self.volume
-        if soil.any():
-            rho = self.mass[soil] / self.Vs[soil]
-            self.mass_tiny = 1e-9 * float(rho.max() * self.volume[soil].min())
-        self.initial_mass = float(self.mass.sum())
-        self.dt = self.settings.safety_factor * self.stable_time_step()
-
-    def stable_time_step(self) -> float:
-        """min L_e/c over the soil cells, c = √(M/ρ) of the current state, L_e = :func:`characteristic_length_rz`."""
-        dtc = self.cell_time_steps(self._modulus_now())
-        if not np.isfinite(dtc).any():
-            return np.inf
-        self.governing_cell = int(np.argmin(dtc))
-        self.dt_critical = float(dtc.ravel()[self.governing_cell])
-        return self.dt_critical
-
-    def cell_time_steps(self, modulus: np.ndarray) -> np.ndarray:
-        """Each cell's own stable step L_e/√(M/ρ) (s) for the P-wave moduli ``modulus`` (Pa); inf without soil."""
-        soil = self.Vs > PHI_MIN * self.volume
-        dtc = np.full(self.Vs.shape, np.inf)
-        rho = self.mass[soil] / self.Vs[soil]
-        le = np.broadcast_to(characteristic_length_rz(self.hr[:, None], self.hz[None, :]), self.Vs.shape)[soil]
-        dtc[soil] = le / np.sqrt(modulus[soil] / rho)
-        return dtc
-
-    # --- the explicit step ----------------------------------------------------------------------------------
-    def step(self, dt: float | None = None) -> None:
-        """One explicit step: Lagrangian phase, then the remap when the accumulated node displacements reach
-        ``remap_courant`` of a cell (every step with 0, never with ``np.inf``). With multi-rate levels
-        (``settings.multirate_levels``) one step of a cycle: only the cells and nodes whose level is due advance
-        (:func:`geocel.euler.axisym.assign_levels_rz`), and the remap waits for the cycle's end."""
-        st = self.settings
-        dt = self.dt if dt is None else dt
-        contact = self.contact
-        levels = st.multirate_levels
-        phase = int(self.multirate_clock[0])
-        if levels > 0:
-            dt = self._multirate_cycle(dt, phase)
-        t0 = perf_counter()
-        if contact is not None:
-            contact.before_nodes(dt)
-        wz = self.frame_velocity
-        ke, dEi, dEv, dEh, wg, wx = advance_nodes_rz(
+    # --- what the r–z geometry supplies to the step (geocel.solver.field.EulerianField) ---------------------------
+    def nodal_pass(self, dt: float, phase: int = 0) -> tuple[float, ...]:
+        """:func:`geocel.euler.axisym.advance_nodes_rz` (the nodes due in the multi-rate step ``phase``)."""
+        return advance_nodes_rz(
             self.hr, self.hz, self.rc, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass, self.v,
             self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
             self.mass_tiny, self._force_factors, self.cell_level, self.node_level, phase,
         )  # fmt: skip
-        if contact is not None:
-            contact.apply(dt)
-        t1 = perf_counter()
+
+    def cell_pass(self, dt: float, phase: int = 0) -> tuple[float, int]:
+        """The non-local factors (a model with a length) and :func:`geocel.euler.axisym.update_cells_rz` of the cells
+        due in the step ``phase``."""
+        st = self.settings
         nonlocal_ = self._nonlocal_weights is not None
         if nonlocal_:
-            self._nonlocal_factors(phase if levels > 0 else None)
-        dtc, arg = update_cells_rz(
+            self._nonlocal_factors(phase if st.multirate_levels > 0 else None)
+        return update_cells_rz(
             self.model_tag, self.prm, self.rc, self.hr, self.hz, self.Vs, self.mass, self.stress, self.state,
             self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength, self._max_substep,
             self.nonlocal_factor, nonlocal_, get_num_threads(), self.split, self.cell_level, phase, self.cell_dt,
         )  # fmt: skip
-        cycle_end = True
-        if levels > 0:
-            phase += 1
-            cycle_end = phase == 1 << levels
-            self.multirate_clock[0] = 0 if cycle_end else phase
-            # the step after a cycle takes the smallest stable step of all cells; inside one, Δt holds
-            dtc, arg = self._multirate_dt() if cycle_end else (self.multirate_clock[1] / st.safety_factor, arg)
-        if not (math.isfinite(ke) and math.isfinite(dEi)):
-            raise InstabilityError(
-                f"axisymmetric step {self.step_count}: non-finite energy (Δt = {dt:.3g} s)",
-                {"step": self.step_count, "time": self.time, "dt": dt, "quantity": "kinetic_energy"},
-            )
-        t2 = perf_counter()
-        rc_ = st.remap_courant
-        if rc_ < math.inf:
-            deferred = rc_ > 0.0
-            if not deferred and levels == 0:
-                self.u_remap[...] = 0.0
-            courant = _accumulate_rz(
-                self._node_reciprocal[0], self._node_reciprocal[1], self.v, dt, self.u_remap, wz
-            )
-            runaway = None
-            if courant > 1.0:
-                runaway = runaway_nodes(self.u_remap, self._node_reciprocal, self.Vs, self.volume)
-            if runaway is not None and runaway.any():
-                speed = np.where(runaway, np.abs(self.v).max(axis=-1), -1.0)  # the fastest of those with soil
-                i, k = (int(t) for t in np.unravel_index(np.argmax(speed), speed.shape))
-                raise InstabilityError(
-                    f"axisymmetric step {self.step_count}: a node moved {courant:.3g} cells in one remap interval "
-                    f"(the fastest, {float(speed[i, k]):.3g} m/s, at r = {self.grid.r[i]:.3g} m, "
-                    f"z = {self.grid.z[k]:.3g} m; Δt = {dt:.3g} s)",
-                    {"step": self.step_count, "time": self.time, "dt": dt, "quantity": "courant", "courant": courant,
-                     "index": [i, k], "position_m": (float(self.grid.r[i]), float(self.grid.z[k]))},
-                )  # fmt: skip
-            self.frame_offset += wz * dt
-            if cycle_end and (not deferred or courant >= rc_):
-                if contact is not None:
-                    contact.before_remap(self.u_remap)
-                self.remap(self.u_remap)
-                self.refill_bottom()
-        else:
-            self.frame_offset += wz * dt
-        t3 = perf_counter()
-        self.book(dt, (ke, dEi, dEv, dEh, wg), dtc, arg, wx, self.kinetic_correction)
-        t4 = perf_counter()
-        tm = self.timers
-        tm["nodes"] += t1 - t0
-        tm["cells"] += t2 - t1
-        tm["remap"] += t3 - t2
-        tm["bookkeeping"] += t4 - t3
+
+    def _accumulate(self, dt: float, wz: float) -> float:
+        return _accumulate_rz(self._node_reciprocal[0], self._node_reciprocal[1], self.v, dt, self.u_remap, wz)
+
+    def _remap_kernel(self, dt: float, order: int, displacement: np.ndarray) -> tuple[float, float]:
+        return remap_rz(
+            self.r, self.hz, self.active, self.v, 1.0, self.Vs, self.Vcur, self.mass, self.stress,
+            self.state[..., 1:], self.nmass, self.fbar, order, self.mass_tiny,
+            self.grain_density / (1.0 + E_MAX), self.grain_density / (1.0 + E_MIN), displacement,
+            self._remap_work, self.remap_split,
+        )  # fmt: skip
+
+    def _lump_node_masses(self) -> None:
+        node_mass_rz(self.mass, self.nmass)
+
+    def _cell_axes(self) -> tuple[np.ndarray, ...]:
+        return self.grid.rc, self.grid.zc
+
+    def _node_axes(self) -> tuple[np.ndarray, ...]:
+        return self.grid.r, self.grid.z
 
     def _multirate_cycle(self, dt: float, phase: int) -> float:
         """The Δt of a multi-rate step: at a cycle's start, ``dt`` (held for the cycle) and the levels from
@@ -388,22 +249,6 @@ class AxisymmetricField(FieldBalances):
         dtc = np.where(soil & (self.cell_dt > 0.0), self.cell_dt, np.inf)
         arg = int(np.argmin(dtc))
         return float(dtc.ravel()[arg]), arg
-
-    def remap(self, displacement: np.ndarray) -> None:
-        """Remap with the mesh motion ``displacement`` (m, then reset); e is recomputed from the density."""
-        ke_before = _kinetic_energy_rz(self.nmass, self.v)
-        lost, capped = remap_rz(
-            self.r, self.hz, self.active, self.v, 1.0, self.Vs, self.Vcur, self.mass, self.stress,
-            self.state[..., 1:], self.nmass, self.fbar, self.remap_count, self.mass_tiny,
-            self.grain_density / (1.0 + E_MAX), self.grain_density / (1.0 + E_MIN), displacement,
-            self._remap_work, self.remap_split,
-        )  # fmt: skip
-        displacement[...] = 0.0
-        _void_ratio_rz(self.Vs, self.volume, self.mass, self.state, self.grain_density)
-        self.energy["remap_kinetic_loss"] += ke_before - _kinetic_energy_rz(self.nmass, self.v)
-        self.lost_mass += lost
-        self.capped_volume += capped
-        self.remap_count += 1
 
     def _lump_bottom_rows(self) -> None:
         """The lumped masses of the two node rows around the refilled bottom cells (:func:`node_mass_rz` on

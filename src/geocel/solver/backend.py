@@ -1,15 +1,16 @@
 """The soil field and the pile of a scenario behind one interface: what the simulation loop asks of a model.
 
 :class:`~geocel.solver.simulation.Simulation`, the history and the field snapshots (:mod:`geocel.solver.writers`)
-talk to a backend only; the physics stays in the fields and contacts it wraps. Two backends, picked by
-``[domain] symmetry`` in :func:`build_backend`:
+talk to a backend only; the physics stays in the fields and contacts it wraps (built by
+:mod:`geocel.solver.build`). The backends, picked by ``[domain] symmetry`` and ``layout`` in :func:`build_backend`:
 
 * :class:`CartesianBackend`: the 3D grid (quarter, half or full model), :class:`~geocel.solver.field.SoilField`
   with any pile (:mod:`geocel.bodies.pile`) and :class:`~geocel.contact.coupling.ContactCoupling`;
 * :class:`AxisymmetricBackend`: the r–z plane, :class:`~geocel.solver.axisym_field.AxisymmetricField` with the
   rigid pile of :mod:`geocel.contact.axisym` or a solid or coupled pile body (issue 17);
-* :class:`~geocel.solver.cylindrical_backend.CylindricalBackend` (``[domain] layout = "cylindrical"``): the r–z
-  grid turned round the axis in sectors, with the r–z model's piles (experimental).
+* :class:`CylindricalBackend` (``[domain] layout = "cylindrical"``, the default for a flat-based pile in a quarter or
+  half model): the r–z grid turned round the axis in sectors, with the r–z model's piles; its forces are the whole
+  pile's and its energies, works, masses and volumes the whole body's (the field's sector × 2π/Θ).
 
 Units of what a backend reports: forces returned by :meth:`Backend.advance` × ``force_factor`` are those on the
 whole pile (N); the field's energies, masses and volumes × ``extent_factor`` are those the outputs report (the
@@ -24,10 +25,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..bodies.geometry import PileGeometry, pile_mesh
+from ..bodies.geometry import pile_mesh
 from ..bodies.pile import RigidPile, head_velocity
 from ..euler.lagrange import PHI_MIN
-from ..io.vtk import write_rectilinear, write_rectilinear_rz, write_unstructured_hex
+from ..io.vtk import write_rectilinear, write_rectilinear_rz, write_structured, write_unstructured_hex
+from .build import build_field, build_pile_body, pile_geometry, rz_grid, soil_layers, solver_settings
 from .field import node_fraction, soil_fraction_of_cells
 
 if TYPE_CHECKING:
@@ -40,37 +42,6 @@ __all__ = ["AxisymmetricBackend", "Backend", "CartesianBackend", "NestedBackend"
 STATE_ARRAYS = ("Vs", "Vcur", "mass", "stress", "state", "q", "hg", "v", "nmass", "modulus", "u_remap")
 #: the r–z field's multi-rate arrays a checkpoint keeps as well (``[solver] multirate_levels`` > 0)
 MULTIRATE_ARRAYS = ("cell_dt", "cell_level", "node_level", "multirate_clock")
-
-
-def _layers(scenario: Scenario) -> list[tuple[float, float]]:
-    mat = scenario.soil.material
-    return [(layer.top, scenario.soil.void_ratio_of(layer, mat)) for layer in scenario.soil.layers]
-
-
-def _geometry(scenario: Scenario) -> PileGeometry | None:
-    p = scenario.pile
-    if p is None:
-        return None
-    return PileGeometry.embedded(p.diameter, p.length, p.initial_embedment, tip=p.tip, tip_angle=p.tip_angle)
-
-
-def rz_grid(scenario: Scenario):
-    """The r–z grid of the ``[domain]`` keys (:meth:`geocel.grid.axisym.AxisymmetricGrid.graded`): the r–z model's,
-    and the one the cylindrical layout turns round the axis."""
-    from ..grid.axisym import AxisymmetricGrid
-
-    d = scenario.domain
-    return AxisymmetricGrid.graded(
-        radius=d.radius,
-        soil_depth=d.soil_depth,
-        void_height=scenario.grid_void_height(),
-        fine_size=d.fine_size,
-        fine_radius=d.fine_radius,
-        fine_depth=d.fine_depth,
-        growth=d.growth,
-        max_size=d.max_size,
-        fine_height=d.fine_height,
-    )
 
 
 #: nodes whose cells are all less full than this are the void's dust: a nearly empty node at the free surface
@@ -103,7 +74,7 @@ class Backend:
         self.pile: Any = None
         self.contact: Any = None
         #: the pile's geometry (None without a pile): base area, perimeter, diameter of q_b and q_s
-        self.geometry = _geometry(scenario)
+        self.geometry = pile_geometry(scenario)
 
     # --- the soil ------------------------------------------------------------------------------------------
     def state_arrays(self) -> dict[str, np.ndarray]:
@@ -251,8 +222,6 @@ class CartesianBackend(Backend):
     """The 3D model: graded grid of hexahedral cells (quarter, half or full), any pile."""
 
     def __init__(self, scenario: Scenario) -> None:
-        from .simulation import build_field
-
         super().__init__(scenario)
         self.symmetry = scenario.domain.symmetry
         self.field = build_field(scenario)
@@ -478,7 +447,6 @@ class AxisymmetricBackend(Backend):
     def __init__(self, scenario: Scenario) -> None:
         from ..contact.axisym import AxisymmetricPileContact, RigidPileRZ
         from .axisym_field import AxisymmetricField
-        from .simulation import solver_settings
 
         super().__init__(scenario)
         self._rigid_type = RigidPileRZ
@@ -490,7 +458,7 @@ class AxisymmetricBackend(Backend):
         )
         f.fill_below(0.0)
         f.geostatic(
-            _layers(scenario), k0=scenario.initial.k0, intergranular=scenario.initial.intergranular_strain
+            soil_layers(scenario), k0=scenario.initial.k0, intergranular=scenario.initial.intergranular_strain
         )
         self.field = f
         #: jacking force on the whole pile in the last step (N, + compression) and the jack's work (J)
@@ -504,8 +472,6 @@ class AxisymmetricBackend(Backend):
             else:
                 # the solid pile's steel, or the coupled pile's dummy layer, as r–z rings (bodies.axisym); the
                 # bodies' loop, contact load and coupling are the 3D ones
-                from .simulation import build_pile_body
-
                 pile = build_pile_body(scenario, symmetry="axisymmetric")
             self.contact = AxisymmetricPileContact(
                 f,
@@ -679,14 +645,119 @@ class AxisymmetricBackend(Backend):
         return np.vstack([body.x, body.x]), hexes, cd, pd
 
 
+def theta_cells(scenario: Scenario) -> int:
+    """Sectors per quarter turn: ``[domain] theta_cells``, or the power of two nearest to π/2 a/fine_size (the arc
+    of a sector at the pile's radius a, the fine zone's without a pile, about fine_size), at least 2; a power of
+    two lets the rings towards the axis tie their sectors in halves, quarters …"""
+    d = scenario.domain
+    if d.theta_cells is not None:
+        return int(d.theta_cells)
+    a = 0.5 * scenario.pile.diameter if scenario.pile is not None else d.fine_radius
+    return max(2, 2 ** round(math.log2(0.5 * math.pi * a / d.fine_size)))
+
+
+class CylindricalBackend(AxisymmetricBackend):
+    """The cylindrical layout (module docstring); everything but the grid, the field and the outputs is the r–z
+    backend's, the inertia check's calibration too (a vertically loaded pile is the r–z run)."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        from ..contact.axisym import RigidPileRZ
+        from ..contact.cylindrical import CylindricalPileContact
+        from ..grid.cylindrical import CylindricalGrid
+        from .cylindrical_field import CylindricalField
+
+        Backend.__init__(self, scenario)
+        self._rigid_type = RigidPileRZ
+        d = scenario.domain
+        self.symmetry = d.symmetry
+        rz = rz_grid(scenario)
+        # the sectors tied towards the axis (arcs at least as long as the rings' cells are wide), but not the ring
+        # inside the pile's shaft
+        shaft = round(0.5 * scenario.pile.diameter / d.fine_size) - 1 if scenario.pile is not None else None
+        n = theta_cells(scenario) * (2 if d.symmetry == "half" else 1)
+        grid = CylindricalGrid.from_axisymmetric(rz, n, d.symmetry, coarsen_axis=True, untied_from=shaft)
+        self.extent_factor = 2.0 * math.pi / grid.angle
+        f = CylindricalField(grid, scenario.soil.material, scaling=scenario.scaling.mass_gravity,
+                             settings=solver_settings(scenario))  # fmt: skip
+        f.fill_below(0.0)
+        f.geostatic(soil_layers(scenario), k0=scenario.initial.k0, intergranular=scenario.initial.intergranular_strain)
+        self.field = f
+        self.head_force = 0.0
+        self.jack_work = 0.0
+        p = scenario.pile
+        if p is not None:
+            mu = scenario.contact.friction_coefficient(scenario.soil.material)
+            if p.type == "rigid":
+                pile = RigidPileRZ(0.5 * p.diameter, -p.initial_embedment)
+            else:
+                pile = build_pile_body(scenario, symmetry="axisymmetric")
+            self.contact = CylindricalPileContact(f, pile, friction=mu, base_friction=mu, rim=scenario.contact.rim)
+            self.pile = pile
+            if p.initial_embedment > 0.0:
+                self.contact.wish_in_place()
+            if d.frame == "pile":
+                self.contact.follow_pile()
+
+    def cell_position(self, index: int) -> tuple[float, ...] | None:
+        if index < 0:
+            return None
+        g = self.field.grid
+        i, j, k = np.unravel_index(index, g.shape)
+        t = 0.5 * (g.theta[j] + g.theta[j + 1])
+        return float(g.rc[i] * math.cos(t)), float(g.rc[i] * math.sin(t)), float(g.zc[k] + self.field.frame_offset)
+
+    def fastest_node(self) -> tuple[list[int], tuple[float, ...]]:
+        f = self.field
+        speed = np.linalg.norm(np.nan_to_num(f.v), axis=-1)
+        i, j, k = np.unravel_index(np.argmax(speed), speed.shape)
+        g = f.grid
+        r, t = g.r[i], g.theta[j]
+        return [int(i), int(j), int(k)], (float(r * math.cos(t)), float(r * math.sin(t)), float(g.z[k] + f.frame_offset))
+
+    def pile_summary(self) -> dict[str, Any]:
+        return {**super().pile_summary(), "pile_model": "r–z (cylindrical layout)"}
+
+    def history_preamble(self) -> str:
+        g = self.field.grid
+        return (
+            f"symmetry: {self.symmetry} model on the cylindrical layout ({g.ntheta} sectors); qb, qs, base_force, "
+            "shaft_force and head_force are of the whole pile; energies, works, volumes and masses are of the whole "
+            f"body (the modelled {math.degrees(g.angle):.0f}° × {self.extent_factor:g})"
+        )
+
+    def cell_fields(self) -> dict[str, np.ndarray]:
+        """Cell data for output: as r–z's, with the stress components rθ and θz (in the cell's (r, θ, z) basis)."""
+        f = self.field
+        out = super().cell_fields()
+        out["stress_rt"] = f.stress[..., 3]
+        out["stress_tz"] = f.stress[..., 5]
+        return out
+
+    def write_fields(self, run_dir: RunDirectory, index: int) -> list[tuple[Path, int]]:
+        f = self.field
+        g = f.grid
+        R, T, Z = np.meshgrid(g.r, g.theta, g.z + f.frame_offset, indexing="ij")
+        soil = write_structured(
+            run_dir.field_path("soil", index),
+            R * np.cos(T),
+            R * np.sin(T),
+            Z,
+            self.cell_fields(),
+            point_data={"velocity": f.cartesian_velocity()},
+        )
+        out = [(soil, 0)]
+        if self.pile is not None:
+            pts, hexes, cd, pd = self._pile_vtu()
+            out.append((write_unstructured_hex(run_dir.field_path("pile", index), pts, hexes, cd, pd), 1))
+        return out
+
+
 def build_backend(scenario: Scenario) -> Backend:
     """The backend of ``[domain] symmetry``: the soil field in its geostatic state (MGS applied, once), the
     pile wished in place to its initial embedment and the contact."""
     if scenario.domain.symmetry == "axisymmetric":
         return AxisymmetricBackend(scenario)
     if scenario.domain.layout == "cylindrical":
-        from .cylindrical_backend import CylindricalBackend
-
         return CylindricalBackend(scenario)
     if scenario.domain.layout == "nested":
         return NestedBackend(scenario)

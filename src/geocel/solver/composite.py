@@ -9,8 +9,6 @@ never crosses an interface) and after each node sweep the interface nodes' momen
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from ..euler.hanging import couple_nodes, exchange_fluxes, merge_momentum
@@ -20,8 +18,7 @@ from ..grid.nested import NestedColumns
 from .field import (
     E_MAX,
     E_MIN,
-    FieldBalances,
-    InstabilityError,
+    EulerianField,
     Material,
     SoilField,
     SolverSettings,
@@ -30,7 +27,7 @@ from .field import (
 )
 
 
-class CompositeField(FieldBalances):
+class CompositeField(EulerianField):
     """Soil on the levels of ``layout``, with one material, MGS factor ``scaling`` and ``settings``.
 
     ``levels[L]`` is the :class:`SoilField` of level L (its arrays are the level's grid's); the energies,
@@ -63,6 +60,7 @@ class CompositeField(FieldBalances):
                 lvl.release_own_nonlocal_mean()
         self.contact = None
         self.governing_level = -1
+        self.u_remap = None  # (each level keeps its own pending displacements)
 
     # --- initial state --------------------------------------------------------------------------------------
     def fill_below(self, surface: float = 0.0) -> None:
@@ -89,47 +87,36 @@ class CompositeField(FieldBalances):
         self.dt_critical = float(min(steps))
         return self.dt_critical
 
-    # --- the explicit step --------------------------------------------------------------------------------------
-    def step(self, dt: float | None = None, parity: int | None = None) -> None:
-        """One explicit step of every level with the same Δt (the smallest level's stable step)."""
-        dt = self.dt if dt is None else dt
-        tm = self.timers
-        t0 = time.perf_counter()
-        if self.contact is not None:
-            self.contact.before_nodes(dt)
-        sums = np.array(self._nodal_pass(dt))
-        if self.contact is not None:
-            self.contact.apply(dt)
-        t1 = time.perf_counter()
+    # --- the phases of the step (geocel.solver.field.EulerianField.step), level by level ----------------------------
+    def nodal_pass(self, dt: float, phase: int = 0) -> tuple[float, ...]:
+        return tuple(self._nodal_pass(dt))
+
+    def cell_pass(self, dt: float, phase: int = 0) -> tuple[float, int]:
+        """Every level's cell pass (with the non-local mean across the levels); Δt is the smallest level's."""
         dtc, arg, level = np.inf, -1, -1
         if self.cross_mean is not None:
             self.cross_mean.factors(self.levels)
         for L, lvl in enumerate(self.levels):
             given = None if self.cross_mean is None else self.cross_mean.nonlocal_level(L)
-            d, a = lvl.cell_pass(dt, given)
+            d, a = lvl.cell_pass(dt, nonlocal_given=given)
             if d < dtc:
                 dtc, arg, level = d, a, L
-        if not (np.isfinite(sums[0]) and np.isfinite(sums[1])):
-            raise InstabilityError(*self._diagnose(dt))
-        t2 = time.perf_counter()
+        self.governing_level = level
+        return dtc, arg
+
+    def pending_courant(self, dt: float, reset: bool = True) -> float:
         for lvl in self.levels:  # (the pile's frame: every level moves with the grid's velocity)
             lvl.frame_velocity = self.frame_velocity
-        courant = max(lvl.pending_courant(dt) for lvl in self.levels)
+        courant = max(lvl.pending_courant(dt, reset) for lvl in self.levels)
         self.frame_offset = self.levels[0].frame_offset
-        runaway = courant > 1.0 and self.settings.remap_courant < np.inf
-        if runaway and any(lvl.runaway() for lvl in self.levels):
-            raise InstabilityError(*self._diagnose(dt, courant))
-        if self.levels[0].remap_due(courant):
-            self._remap(parity)
-        t3 = time.perf_counter()
-        self.book(dt, sums, dtc, arg)
-        self.governing_level = level
+        return courant
+
+    def runaway(self) -> bool:
+        return any(lvl.runaway() for lvl in self.levels)
+
+    def _after_book(self) -> None:
         for lvl in self.levels:
             lvl.time, lvl.step_count = self.time, self.step_count
-        tm["nodes"] += t1 - t0
-        tm["cells"] += t2 - t1
-        tm["remap"] += t3 - t2
-        tm["bookkeeping"] += time.perf_counter() - t3
 
     def _nodal_pass(self, dt: float) -> np.ndarray:
         """Every level's nodal pass with its interface nodes detached (mass 0: left alone), then the
@@ -143,7 +130,7 @@ class CompositeField(FieldBalances):
             held.append((c.v[I, J].copy(), c.nmass[I, J].copy(), f.nmass[i, j].copy()))
             c.nmass[I, J] = 0.0
             f.nmass[i, j] = 0.0
-        sums = np.zeros(5)
+        sums = np.zeros(6)
         try:
             for lvl in self.levels:
                 sums += lvl.nodal_pass(dt)
@@ -153,7 +140,7 @@ class CompositeField(FieldBalances):
                 self.levels[itf.fine].nmass[itf.fine_nodes[:, 0], itf.fine_nodes[:, 1]] = mf
         for itf, (v_old, mc, mf) in zip(itfs, held, strict=True):
             c, f = self.levels[itf.coarse], self.levels[itf.fine]
-            sums += couple_nodes(
+            sums[:5] += couple_nodes(
                 itf.coarse_nodes, itf.fine_nodes, itf.parent, itf.weight,
                 c.active2d, c._force_factors, c.v, c.fix, mc,
                 f.active2d, f._force_factors, f.v, mf,
@@ -175,7 +162,7 @@ class CompositeField(FieldBalances):
         diag["level"] = L
         return f"{msg} (nested level {L}, cells of {self.layout.sizes[L]:g} m)", diag
 
-    def _remap(self, parity: int | None) -> None:
+    def _remap(self, dt: float, parity: int | None, displacement: None = None) -> None:
         """Every level's remap (:func:`geocel.euler.remap.remap_sweeps`, the pending node displacements as the
         mesh motion) in lockstep, the interfaces joined after each sweep; then the void ratios from the
         densities and the kinetic energy the remap removed."""
@@ -239,11 +226,10 @@ class CompositeField(FieldBalances):
         for lvl in self.levels:
             lvl.u_remap[...] = 0.0
             lvl.refill_bottom()
-            void_ratio_from_density(
-                lvl.active2d, lvl.Vs, lvl.mass, lvl.state, self.grain_density, lvl.hx, lvl.hy, lvl.hz
-            )
         if self.contact is not None:
             self.contact.after_remap()
+        for lvl in self.levels:
+            void_ratio_from_density(lvl.Vs, lvl.volume, lvl.mass, lvl.state, self.grain_density)
         self.energy["remap_kinetic_loss"] += ke_before - self.kinetic_energy()
         self.inflow_mass = sum(lvl.inflow_mass for lvl in self.levels)
         self.refill_offset = self.levels[0].refill_offset

@@ -1,9 +1,6 @@
-"""The Eulerian soil field on the cylindrical (r, θ, z) grid: arrays, geostatic state, MGS, one step (issue 18,
-the cylindrical layout; experimental: the soil step with its remap, no pile yet).
-
-A standalone driver as :class:`geocel.solver.axisym_field.AxisymmetricField` was at first: the same settings,
-soil models, MGS and deferred remap (``remap_courant``; ``np.inf`` keeps the material on its grid, a small-strain
-analysis); the kernels are :mod:`geocel.euler.cylindrical` and :mod:`geocel.euler.cylindrical_remap`. Everything extensive is for the modelled
+"""The Eulerian soil field on the cylindrical (r, θ, z) grid: its arrays and what the geometry supplies to the
+soil step written once in :class:`geocel.solver.field.EulerianField`: the kernels of :mod:`geocel.euler.cylindrical`
+and :mod:`geocel.euler.cylindrical_remap`. Everything extensive is for the modelled
 sector (m³, kg, N, J; × 4 for a quarter model's whole body). Node arrays are (nr+1, nθ+1, nz+1[, 3]) with
 components (r, θ, z) in the node's basis; cell arrays (nr, nθ, nz[, k]); stresses (rr, θθ, zz, rθ, rz, θz).
 
@@ -13,9 +10,7 @@ The pile's contact is :mod:`geocel.contact.cylindrical`; the non-local sand's me
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
-from time import perf_counter
 
 import numpy as np
 from numba import njit
@@ -31,11 +26,11 @@ from ..euler.cylindrical import (
     update_cells_cyl,
 )
 from ..euler.cylindrical_remap import remap_cyl, tensor_offsets
-from ..euler.lagrange import PHI_MIN, characteristic_length
+from ..euler.lagrange import characteristic_length
 from ..euler.nonlocal_mean import reaches_a_neighbour
 from ..grid.cylindrical import CylindricalGrid
 from ..materials.tensor import KERNEL_OPTIONS
-from .field import E_MAX, E_MIN, FieldBalances, InstabilityError, Material, SolverSettings, node_spacing
+from .field import E_MAX, E_MIN, EulerianField, Material, SolverSettings, node_spacing
 
 
 @njit(**KERNEL_OPTIONS)
@@ -58,17 +53,6 @@ def _accumulate_cyl(rr, rt, rz, v, dt, u, wz):
 
 
 @njit(**KERNEL_OPTIONS)
-def _void_ratio_cyl(Vs, volume, mass, state, grain_density):
-    """e = ρ_s V_s/m − 1 in every soil cell (after a remap, which carries mass and soil volume, not e)."""
-    n1, n2, n3 = Vs.shape
-    for i in range(n1):
-        for j in range(n2):
-            for k in range(n3):
-                if Vs[i, j, k] > PHI_MIN * volume[i, j, k] and mass[i, j, k] > 0.0:
-                    state[i, j, k, 0] = grain_density * Vs[i, j, k] / mass[i, j, k] - 1.0
-
-
-@njit(**KERNEL_OPTIONS)
 def _kinetic_energy_cyl(nmass, v):
     """½ Σ m |v|² over the nodes, the axis node once (J)."""
     n1, n2, n3 = nmass.shape
@@ -81,7 +65,7 @@ def _kinetic_energy_cyl(nmass, v):
 
 
 @dataclass
-class CylindricalField(FieldBalances):
+class CylindricalField(EulerianField):
     """Soil on a :class:`~geocel.grid.cylindrical.CylindricalGrid`.
 
     ``damping`` α (1/s): mass-proportional damping for quasi-static checks (0 in a physical run).
@@ -102,7 +86,7 @@ class CylindricalField(FieldBalances):
         nshape = (g.nr + 1, g.ntheta + 1, g.nz + 1)
         self.nstate = len(self.material.state_names)
         self.hr, self.hz, self.rc, self.dtheta = g.hr, g.hz, g.rc, g.dtheta
-        self.volume = g.cell_volumes()
+        self.volume = np.ascontiguousarray(g.cell_volumes())
         self.Vs = np.zeros(shape)
         self.mass = np.zeros(shape)
         self.stress = np.zeros(shape + (6,))
@@ -127,6 +111,10 @@ class CylindricalField(FieldBalances):
         # axis), h_z
         arcs = np.maximum(g.r, g.r[1]) * g.dtheta * g.node_factors()
         self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / arcs, 1.0 / node_spacing(g.hz))
+        self._reciprocal_axes = (0, 0, 2)  # (the arc r Δθ varies with the ring)
+        #: each cell's L_e of the stable step: the local box h_r × r_c Δθ × h_z (a tied group's arc; the axis ring:
+        #: its outer arc), m
+        self._cell_lengths = characteristic_length(g.hr[:, None, None], g.ring_arcs()[:, None, None], g.hz[None, None, :])
         self._state_tensors = tensor_offsets(self.material.state_names[1:])
         self._node_factors = g.node_factors()
         self._tied = bool(g.ties.max() > 1)
@@ -153,90 +141,22 @@ class CylindricalField(FieldBalances):
         self.contact = None
         self._init_bookkeeping()
 
-    # --- initial state ------------------------------------------------------------------------------------------
-    def fill_below(self, surface: float = 0.0) -> None:
-        """Soil in every cell below z = ``surface`` (cells cut by it are partially filled)."""
-        frac = np.clip((surface - self.grid.z[:-1]) / self.hz, 0.0, 1.0)
-        self.Vs[...] = self.volume * frac[None, None, :]
-
-    def geostatic(self, layers: list[tuple[float, float]], k0: float, intergranular: str = "vertical") -> None:
-        """Void ratio per layer ``(top below surface, e0)``, densities and σ_zz in discrete equilibrium with
-        the lumped gravity forces, σ_rr = σ_θθ = K0 σ_zz, as :meth:`AxisymmetricField.geostatic
-        <geocel.solver.axisym_field.AxisymmetricField.geostatic>` (the sector's Δθ cancels as r_c does)."""
-        if not layers or layers[0][0] != 0.0:
-            raise ValueError("the first layer must start at the surface (top = 0)")
-        g = self.grid
-        e0 = np.full(g.nz, layers[0][1])
-        for top, e in layers:
-            e0[-g.zc >= top] = e
-        phi = self.Vs / self.volume
-        rho = self.grain_density / (1.0 + e0)
-        self.mass[...] = rho[None, None, :] * self.Vs
-        mu = rho[None, None, :] * phi * self.hz[None, None, :]
-        szz = np.zeros_like(self.Vs)
-        s = np.zeros(g.shape[:2])
-        mu_above = np.zeros(g.shape[:2])
-        for k in range(g.nz - 1, -1, -1):
-            s = s - self.gravity * 0.5 * (mu_above + mu[..., k])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                szz[..., k] = np.where(phi[..., k] >= PHI_MIN, s / np.maximum(phi[..., k], 1e-300), 0.0)
-            mu_above = mu[..., k]
-        self.stress[...] = 0.0
-        self.stress[..., 0] = k0 * szz
-        self.stress[..., 1] = k0 * szz
-        self.stress[..., 2] = szz
-        self.state[...] = 0.0
-        self.state[..., : self.nstate] = self.material.initial_state(float(layers[0][1]), intergranular)
-        self.state[..., 0] = e0[None, None, :]
-        self.initialise()
-
-    def initialise(self) -> None:
-        """Nodal masses, the tiny-mass threshold, the initial mass and Δt from the current cell arrays."""
-        node_mass_cyl(self.mass, self.nmass, self.grid.ties, -1)
-        soil = self.Vs > PHI_MIN * self.volume
-        if soil.any():
-            rho = self.mass[soil] / self.Vs[soil]
-            self.mass_tiny = 1e-9 * float(rho.max() * self.volume[soil].min())
-        self.initial_mass = float(self.mass.sum())
-        self.dt = self.settings.safety_factor * self.stable_time_step()
-
-    def stable_time_step(self) -> float:
-        """min L_e/c over the soil cells, L_e of the cell's local box h_r × r_c Δθ × h_z (r₁Δθ at the axis)."""
-        soil = self.Vs > PHI_MIN * self.volume
-        if not soil.any():
-            return np.inf
-        M = self._modulus_now()[soil]
-        rho = self.mass[soil] / self.Vs[soil]
-        hr = self.hr[:, None, None]
-        ht = self.grid.ring_arcs()[:, None, None]  # (a tied group's; the axis ring: its outer arc)
-        hz = self.hz[None, None, :]
-        le = np.broadcast_to(characteristic_length(hr, ht, hz), self.Vs.shape)[soil]
-        dtc = le / np.sqrt(M / rho)
-        self.governing_cell = int(np.flatnonzero(soil.ravel())[np.argmin(dtc)])
-        self.dt_critical = float(dtc.min())
-        return self.dt_critical
-
-    # --- the explicit step ----------------------------------------------------------------------------------
-    def step(self, dt: float | None = None) -> None:
-        """One explicit step: the Lagrangian phase (with the contact's projection of the trial velocities, if
-        a pile is attached), then the remap when the accumulated node displacements reach ``remap_courant`` of
-        a cell (every step with 0, never with ``np.inf``)."""
-        st = self.settings
-        dt = self.dt if dt is None else dt
-        contact = self.contact
-        t0 = perf_counter()
-        if contact is not None:
-            contact.before_nodes(dt)
-        ke, dEi, dEv, dEh, wg, wx = advance_nodes_cyl(
+    # --- what the cylindrical geometry supplies to the step (geocel.solver.field.EulerianField) -----------------
+    def nodal_pass(self, dt: float, phase: int = 0) -> tuple[float, ...]:
+        """:func:`geocel.euler.cylindrical.advance_nodes_cyl`."""
+        return advance_nodes_cyl(
             self.hr, self.hz, self.rc, self.dtheta, self.grid.ties, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass,
             self.v, self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
             self.mass_tiny, self._force_factors,
         )  # fmt: skip
-        if contact is not None:
-            contact.apply(dt)
-            if self._tied:
-                follow_masters(self.v, self._node_factors)
-        t1 = perf_counter()
+
+    def _after_contact(self) -> None:
+        if self._tied:  # (the contact set the independent nodes: the slaved follow them)
+            follow_masters(self.v, self._node_factors)
+
+    def cell_pass(self, dt: float, phase: int = 0) -> tuple[float, int]:
+        """The non-local factors (a model with a length) and :func:`geocel.euler.cylindrical.update_cells_cyl`."""
+        st = self.settings
         nonlocal_ = self._nonlocal_weights is not None
         if nonlocal_:
             nonlocal_factor_cyl(
@@ -244,62 +164,38 @@ class CylindricalField(FieldBalances):
                 self._nonlocal_scratch[0], self._nonlocal_scratch[1:], self.nonlocal_factor, self.split_ring,
                 self.split_z, self.split_r,
             )  # fmt: skip
-        dtc, arg = update_cells_cyl(
+        return update_cells_cyl(
             self.model_tag, self.prm, self.rc, self.hr, self.dtheta, self.grid.ties, self.hz, self.Vs, self.mass, self.stress,
             self.state, self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength,
             self._max_substep, self.split_ring[0], self.split_ring[1], self.split_z, self.split_r,
             self.nonlocal_factor, nonlocal_,
         )  # fmt: skip
-        if not (math.isfinite(ke) and math.isfinite(dEi)):
-            raise InstabilityError(
-                f"cylindrical step {self.step_count}: non-finite energy (Δt = {dt:.3g} s)",
-                {"step": self.step_count, "time": self.time, "dt": dt, "quantity": "kinetic_energy"},
-            )
-        t2 = perf_counter()
-        rc_ = st.remap_courant
-        wz = self.frame_velocity
-        if rc_ < math.inf:
-            if rc_ <= 0.0:
-                self.u_remap[...] = 0.0
-            courant = _accumulate_cyl(*self._node_reciprocal, self.v, dt, self.u_remap, wz)
-            if courant > 1.0:
-                raise InstabilityError(
-                    f"cylindrical step {self.step_count}: a node moved {courant:.3g} cells in one remap interval "
-                    f"(Δt = {dt:.3g} s)",
-                    {"step": self.step_count, "time": self.time, "dt": dt, "quantity": "courant", "courant": courant},
-                )
-            self.frame_offset += wz * dt
-            if rc_ <= 0.0 or courant >= rc_:
-                if contact is not None:
-                    contact.before_remap(self.u_remap)
-                self.remap(self.u_remap)
-                self.refill_bottom()
-        else:
-            self.frame_offset += wz * dt
-        t3 = perf_counter()
-        self.book(dt, (ke, dEi, dEv, dEh, wg), dtc, arg, wx, self.kinetic_correction)
-        tm = self.timers
-        tm["nodes"] += t1 - t0
-        tm["cells"] += t2 - t1
-        tm["remap"] += t3 - t2
 
-    def remap(self, displacement: np.ndarray) -> None:
-        """Remap with the mesh motion ``displacement`` (m, then reset); e is recomputed from the density."""
-        ke_before = _kinetic_energy_cyl(self.nmass, self.v)
-        lost, capped = remap_cyl(
+    def _accumulate(self, dt: float, wz: float) -> float:
+        return _accumulate_cyl(*self._node_reciprocal, self.v, dt, self.u_remap, wz)
+
+    def _remap_kernel(self, dt: float, order: int, displacement: np.ndarray) -> tuple[float, float]:
+        return remap_cyl(
             self.grid.r, self.dtheta, self.hz, self.v, self.Vs, self.Vcur, self.mass, self.stress,
-            self.state[..., 1:], self.nmass, self.fbar, self.remap_count, self.mass_tiny, displacement,
+            self.state[..., 1:], self.nmass, self.fbar, order, self.mass_tiny, displacement,
             self._state_tensors, self.nstate - 1, self.grain_density / (1.0 + E_MAX),
             self.grain_density / (1.0 + E_MIN), self._remap_work, self.active, self.split_ring, self.remap_split_z,
             self.remap_split_r, self.grid.ties,
         )  # fmt: skip
-        displacement[...] = 0.0
-        _void_ratio_cyl(self.Vs, self.volume, self.mass, self.state, self.grain_density)
-        self.energy["remap_kinetic_loss"] += ke_before - _kinetic_energy_cyl(self.nmass, self.v)
-        self.lost_mass += lost
-        self.capped_volume += capped
-        self.remap_count += 1
+
+    def _kinetic_energy(self) -> float:
+        return _kinetic_energy_cyl(self.nmass, self.v)
+
+    def _lump_node_masses(self) -> None:
+        node_mass_cyl(self.mass, self.nmass, self.grid.ties, -1)
+
+    def _cell_axes(self) -> tuple[np.ndarray, ...]:
+        t = self.grid.theta
+        return self.grid.rc, 0.5 * (t[:-1] + t[1:]), self.grid.zc
+
+    def _node_axes(self) -> tuple[np.ndarray, ...]:
+        return self.grid.r, self.grid.theta, self.grid.z
 
     def _lump_bottom_rows(self) -> None:
         """The lumped masses of the two node rows around the refilled bottom cells."""

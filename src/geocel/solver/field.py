@@ -69,17 +69,23 @@ def soil_fraction_of_cells(Vs: np.ndarray, volume: np.ndarray) -> np.ndarray:
 
 
 def runaway_nodes(
-    u: np.ndarray, reciprocals: tuple, Vs: np.ndarray, volume: np.ndarray, fraction: float = 0.01
+    u: np.ndarray,
+    reciprocals: tuple,
+    Vs: np.ndarray,
+    volume: np.ndarray,
+    axes: tuple[int, ...] = (0, 1, 2),
+    fraction: float = 0.01,
 ) -> np.ndarray:
     """Mask of the nodes that moved more than a cell (``u``, m, against the node spacings' ``reciprocals`` per
     axis) since the last remap and are next to a cell at least ``fraction`` full: with Δt within the stable step
     no node with soil does (the step's bound includes the speed), but a nearly empty node at the free surface
     may outrun its cell harmlessly (the remap moves no more soil than a donor holds). (The cells' fractions
-    decide, not the nodal masses, which differ by orders of magnitude on graded grids.)"""
+    decide, not the nodal masses, which differ by orders of magnitude on graded grids.) ``axes[d]``: the node
+    array's axis along which ``reciprocals[d]`` runs (the cylindrical layout's arc length varies with r)."""
     c = np.zeros(u.shape[:-1])
     for d, rec in enumerate(reciprocals):
         shape = [1] * c.ndim
-        shape[d] = -1
+        shape[axes[d]] = -1
         c = np.maximum(c, np.abs(u[..., d]) * rec.reshape(shape))
     return (c > 1.0) & (node_fraction(soil_fraction_of_cells(Vs, volume)) >= fraction)
 
@@ -93,16 +99,17 @@ class InstabilityError(RuntimeError):
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
-def void_ratio_from_density(active, Vs, mass, state, grain_density, hx, hy, hz):
-    """e = ρ_s V_s / m − 1 for every soil cell (e follows the conserved mass and soil volume)."""
-    nx, ny, nz = Vs.shape
-    for i in prange(nx):
-        for j in range(ny):
-            if not active[i, j]:
-                continue
-            for k in range(nz):
-                if Vs[i, j, k] > PHI_MIN * hx[i] * hy[j] * hz[k] and mass[i, j, k] > 0.0:
-                    state[i, j, k, 0] = grain_density * Vs[i, j, k] / mass[i, j, k] - 1.0
+def void_ratio_from_density(Vs, volume, mass, state, grain_density):
+    """e = ρ_s V_s / m − 1 in every soil cell (e follows the conserved mass and soil volume); any geometry: the
+    cell arrays are taken flat (C-contiguous, the state's last axis its components)."""
+    n = Vs.size
+    vs = Vs.reshape(n)
+    vol = volume.reshape(n)
+    m = mass.reshape(n)
+    st = state.reshape((n, state.shape[-1]))
+    for c in prange(n):
+        if vs[c] > PHI_MIN * vol[c] and m[c] > 0.0:
+            st[c, 0] = grain_density * vs[c] / m[c] - 1.0
 
 
 def node_spacing(h: np.ndarray) -> np.ndarray:
@@ -137,19 +144,25 @@ def accumulate_displacement(rx, ry, rz, v, dt, u, wz):
 
 @njit(parallel=True, **KERNEL_OPTIONS)
 def kinetic_energy(nmass, v):
-    """½ Σ m v² over the nodes."""
-    nx, ny, nz = nmass.shape
-    ke = np.empty(nx)
-    for i in prange(nx):
-        s = 0.0
-        for j in range(ny):
-            for k in range(nz):
-                s += 0.5 * nmass[i, j, k] * (v[i, j, k, 0] ** 2 + v[i, j, k, 1] ** 2 + v[i, j, k, 2] ** 2)
-        ke[i] = s
-    t = 0.0
-    for i in range(nx):
-        t += ke[i]
-    return t
+    """½ Σ m |v|² over the nodes (any geometry: the node arrays taken flat)."""
+    n = nmass.size
+    m = nmass.reshape(n)
+    w = v.reshape((n, v.shape[-1]))
+    nd = w.shape[1]
+    chunks = min(n, 256)
+    part = np.empty(chunks)  # (np.empty: a reduction's np.zeros would be a parallel loop of its own)
+    for ch in prange(chunks):
+        t = 0.0
+        for c in range(ch * n // chunks, (ch + 1) * n // chunks):
+            s2 = 0.0
+            for d in range(nd):
+                s2 += w[c, d] * w[c, d]
+            t += m[c] * s2
+        part[ch] = t
+    total = 0.0
+    for ch in range(chunks):
+        total += part[ch]
+    return 0.5 * total
 
 
 @dataclass
@@ -174,9 +187,20 @@ class SolverSettings:
     multirate_levels: int = 0
 
 
-class FieldBalances:
-    """Material set-up and the energy and mass balances shared by the 3D and the axisymmetric soil fields (which keep ``energy``
-    (:data:`ENERGY_KEYS`), ``initial_mass``, ``lost_mass`` and ``soil_mass()``; per radian in r–z)."""
+class EulerianField:
+    """The soil step written once for every grid geometry (DESIGN.md §2.1): the initial state, the stable time
+    step, the explicit step with its remap driver, the instability diagnosis, the energy and mass balances and the
+    pile's frame. A geometry (:class:`SoilField` on the Cartesian grids, :class:`~geocel.solver.axisym_field.
+    AxisymmetricField` in r–z, :class:`~geocel.solver.cylindrical_field.CylindricalField`) holds its arrays (cells
+    (…, n_z[, k]) with z last, nodes (…, n_z + 1, d)) and supplies only what differs: its kernels
+    (:meth:`nodal_pass`, :meth:`cell_pass`, :meth:`_accumulate`, :meth:`_remap_kernel`, :meth:`_lump_node_masses`,
+    :meth:`_lump_bottom_rows`), its cells' lengths ``_cell_lengths`` for Δt and its coordinates
+    (:meth:`_cell_axes`, :meth:`_node_axes`). Extensive quantities are the modelled part's (per radian in r–z)."""
+
+    #: the contact's correction to the kinetic energy of the step (J; the ring contacts' split nodes set it)
+    kinetic_correction = 0.0
+    #: which axis of the node array each component's reciprocal spacing ``_node_reciprocal[d]`` runs along
+    _reciprocal_axes: tuple[int, ...] = (0, 1, 2)
 
     def _init_material(self) -> None:
         """The soil model's compiled parameters, strength line, substep strain and the MGS-scaled gravity
@@ -281,6 +305,227 @@ class FieldBalances:
             return 0.0
         return (self.soil_mass() + self.lost_mass - self.inflow_mass - self.initial_mass) / self.initial_mass
 
+    # --- the initial state ---------------------------------------------------------------------------------
+    def _active_cells(self) -> np.ndarray | bool:
+        """The cells that belong to the domain (the Cartesian grids mask the container's outside)."""
+        return True
+
+    def fill_below(self, surface: float = 0.0) -> None:
+        """Soil in every cell below z = ``surface`` (cells cut by it are partially filled)."""
+        frac = np.clip((surface - self.grid.z[:-1]) / self.hz, 0.0, 1.0)
+        self.Vs[...] = self.volume * frac * self._active_cells()
+
+    def geostatic(self, layers: list[tuple[float, float]], k0: float, intergranular: str = "vertical") -> None:
+        """Void ratio per layer ``(top below surface, e0)`` (surface z = 0), densities, and the geostatic stress in
+        discrete equilibrium with the lumped nodal gravity forces, so the soil is at rest from the first step.
+
+        Per column the nodal balance gives φ_b σ_zz,b = φ_a σ_zz,a − g (μ_a + μ_b)/2 between the cell a above and b
+        below a node (μ = ρ φ h_z, mass per unit area; the cells' areas, r_c in r–z and Δθ in the cylindrical
+        layout, cancel); σ_h = K0 σ_zz in both horizontal directions (r and θ: σ_rr = σ_θθ balances radially on
+        any grading), so a column with a free surface stays at rest to round-off."""
+        if not layers or layers[0][0] != 0.0:
+            raise ValueError("the first layer must start at the surface (top = 0)")
+        g = self.grid
+        e0 = np.full(g.nz, layers[0][1])
+        for top, e in layers:
+            e0[-g.zc >= top] = e
+        phi = self.Vs / self.volume
+        rho = self.grain_density / (1.0 + e0)  # the scaled dry density of each row's soil
+        self.mass[...] = rho * self.Vs
+        mu = rho * phi * self.hz  # mass per unit area
+        szz = np.zeros_like(self.Vs)
+        s = np.zeros(self.Vs.shape[:-1])
+        mu_above = np.zeros(self.Vs.shape[:-1])
+        for k in range(g.nz - 1, -1, -1):
+            s = s - self.gravity * 0.5 * (mu_above + mu[..., k])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                szz[..., k] = np.where(phi[..., k] >= PHI_MIN, s / np.maximum(phi[..., k], 1e-300), 0.0)
+            mu_above = mu[..., k]
+        szz *= self._active_cells()
+        self.stress[...] = 0.0
+        self.stress[..., 0] = k0 * szz
+        self.stress[..., 1] = k0 * szz
+        self.stress[..., 2] = szz
+        self.state[...] = 0.0
+        self.state[..., : self.nstate] = self.material.initial_state(float(layers[0][1]), intergranular)
+        self.state[..., 0] = e0
+        self.initialise()
+
+    def initialise(self) -> None:
+        """Nodal masses, the tiny-mass threshold (1e-9 of the densest soil in the smallest soil cell), the initial
+        mass and Δt from the current cell arrays (after setting Vs, mass, stress and state by hand)."""
+        self._lump_node_masses()
+        soil = self._soil_cells()
+        if soil.any():
+            rho = self.mass[soil] / self.Vs[soil]
+            self.mass_tiny = 1e-9 * float(rho.max() * self.volume[soil].min())
+        self.initial_mass = float(self.mass.sum())
+        self.dt = self.settings.safety_factor * self.stable_time_step()
+
+    def stable_time_step(self) -> float:
+        """Critical step min L_e/c over the soil cells, c = √(M/ρ) from the current material stiffness and L_e the
+        geometry's cell length (``_cell_lengths``); records the governing cell."""
+        dtc = self.cell_time_steps(self._modulus_now())
+        if not np.isfinite(dtc).any():
+            return np.inf
+        self.governing_cell = int(np.argmin(dtc))
+        self.dt_critical = float(dtc.ravel()[self.governing_cell])
+        return self.dt_critical
+
+    def cell_time_steps(self, modulus: np.ndarray) -> np.ndarray:
+        """Each cell's own stable step L_e/√(M/ρ) (s) for the P-wave moduli ``modulus`` (Pa); inf without soil."""
+        soil = self._soil_cells()
+        dtc = np.full(self.Vs.shape, np.inf)
+        rho = self.mass[soil] / self.Vs[soil]
+        le = np.broadcast_to(self._cell_lengths, self.Vs.shape)[soil]
+        dtc[soil] = le / np.sqrt(modulus[soil] / rho)
+        return dtc
+
+    # --- the explicit step ----------------------------------------------------------------------------------
+    def step(self, dt: float | None = None, parity: int | None = None) -> None:
+        """One explicit step: the nodal pass (with the contact's projection of the trial velocities), the cell
+        pass, then the remap when the accumulated node displacements reach ``remap_courant`` of a cell (every step
+        with 0, never with ``np.inf``; LS-DYNA's advection cycles: the Lagrangian steps in between keep the
+        material on the grid it started from and one remap with the summed displacements moves everything, mass
+        conserved exactly). With multi-rate levels (``settings.multirate_levels``, r–z) one step of a cycle: only
+        the cells and nodes whose level is due advance, and the remap waits for the cycle's end. ``parity``: the
+        remap's sweep order (default: alternating with the remap count). Raises :class:`InstabilityError`."""
+        st = self.settings
+        dt = self.dt if dt is None else dt
+        levels = st.multirate_levels
+        phase = int(self.multirate_clock[0]) if levels > 0 else 0
+        if levels > 0:
+            dt = self._multirate_cycle(dt, phase)
+        contact = self.contact
+        tm = self.timers
+        t0 = time.perf_counter()
+        if contact is not None:
+            contact.before_nodes(dt)
+        sums = self.nodal_pass(dt, phase)
+        if contact is not None:
+            contact.apply(dt)
+            self._after_contact()
+        t1 = time.perf_counter()
+        dtc, arg = self.cell_pass(dt, phase)
+        cycle_end = True
+        if levels > 0:
+            phase += 1
+            cycle_end = phase == 1 << levels
+            self.multirate_clock[0] = 0 if cycle_end else phase
+            # the step after a cycle takes the smallest stable step of all cells; inside one, Δt holds
+            dtc, arg = self._multirate_dt() if cycle_end else (self.multirate_clock[1] / st.safety_factor, arg)
+        # a NaN anywhere reaches these sums (this step or the next): no extra pass over the arrays
+        if not (np.isfinite(sums[0]) and np.isfinite(sums[1])):
+            raise InstabilityError(*self._diagnose(dt))
+        t2 = time.perf_counter()
+        courant = self.pending_courant(dt, reset=levels == 0)
+        if courant > 1.0 and st.remap_courant < np.inf and self.runaway():
+            raise InstabilityError(*self._diagnose(dt, courant))
+        if cycle_end and self.remap_due(courant):
+            self._remap(dt, parity, self.u_remap)
+        t3 = time.perf_counter()
+        self.book(dt, sums[:5], dtc, arg, sums[5], self.kinetic_correction)
+        self._after_book()
+        t4 = time.perf_counter()
+        tm["nodes"] += t1 - t0
+        tm["cells"] += t2 - t1
+        tm["remap"] += t3 - t2
+        tm["bookkeeping"] += t4 - t3
+
+    def _after_contact(self) -> None:
+        """After the contact changed the trial velocities (the cylindrical layout's slaved nodes follow)."""
+
+    def _after_book(self) -> None:
+        """After the step's bookkeeping (nested columns hand the clock to their levels)."""
+
+    def pending_courant(self, dt: float, reset: bool = True) -> float:
+        """Add this step's node displacements (relative to the grid's own motion) to those pending for the remap
+        (cleared first when the remap comes every step and ``reset``, a cycle's first step); move the grid's frame;
+        returns the Courant number of the pending remap."""
+        if reset and self.settings.remap_courant <= 0.0:
+            self.u_remap[...] = 0.0
+        wz = self.frame_velocity
+        self.frame_offset += wz * dt
+        return self._accumulate(dt, wz)
+
+    def runaway(self) -> bool:
+        """Whether a node with soil moved more than a cell since the last remap (:func:`runaway_nodes`)."""
+        return bool(self._runaway_nodes().any())
+
+    def _runaway_nodes(self) -> np.ndarray:
+        return runaway_nodes(self.u_remap, self._node_reciprocal, self.Vs, self.volume, self._reciprocal_axes)
+
+    def remap_due(self, courant: float) -> bool:
+        """Whether the remap comes now: after every step, or once the pending Courant number reaches
+        ``remap_courant``."""
+        rc = self.settings.remap_courant
+        return rc <= 0.0 or courant >= rc
+
+    def _remap(self, dt: float, parity: int | None, displacement: np.ndarray) -> None:
+        """Remap back to the fixed grid with the mesh motion ``displacement`` accumulated since the last remap (then
+        reset; the sweep order alternates from one remap to the next unless ``parity`` is given); then the bottom
+        row refilled in the pile's frame, the soil the remap left in the pile moved out (3D contact), and e from
+        the density."""
+        contact = self.contact
+        if contact is not None:
+            contact.before_remap(displacement)
+        ke_before = self._kinetic_energy()
+        lost, capped = self._remap_kernel(dt, self.remap_count if parity is None else parity, displacement)
+        displacement[...] = 0.0
+        self.refill_bottom()
+        if contact is not None:
+            contact.after_remap()
+        void_ratio_from_density(self.Vs, self.volume, self.mass, self.state, self.grain_density)
+        self.energy["remap_kinetic_loss"] += ke_before - self._kinetic_energy()
+        self.lost_mass += lost
+        self.capped_volume += capped
+        self.remap_count += 1
+
+    def remap(self, displacement: np.ndarray) -> None:
+        """Remap with the mesh motion ``displacement`` (m, then reset): :meth:`_remap` outside a step."""
+        self._remap(0.0, None, displacement)
+
+    def _kinetic_energy(self) -> float:
+        """½ Σ m |v|² over the nodes at the current velocities."""
+        return kinetic_energy(self.nmass, self.v)
+
+    def _diagnose(self, dt: float, courant: float | None = None) -> tuple[str, dict]:
+        """Where and which quantity went non-finite (cell arrays at cell centres, node arrays at nodes); if every
+        array is finite, the energy sum overflowed or (``courant`` > 1) a node moved more than a cell before the
+        remap: report the fastest node (with ``courant``, the fastest of those next to soil)."""
+        diag: dict = {"step": self.step_count, "time": self.time, "dt": dt}
+        cells = (("stress", self.stress), ("mass", self.mass), ("soil_volume", self.Vs), ("viscous_pressure", self.q))
+        nodes = (("velocity", self.v), ("nodal_mass", self.nmass))
+        for axes, arrays in ((self._cell_axes(), cells), (self._node_axes(), nodes)):
+            for name, arr in arrays:
+                bad = ~np.isfinite(arr)
+                if bad.any():
+                    idx = [int(t) for t in np.argwhere(bad)[0][: len(axes)]]
+                    diag.update(quantity=name, index=idx, position_m=tuple(float(a[i]) for a, i in zip(axes, idx, strict=True)))
+                    break
+            if "quantity" in diag:
+                break
+        else:
+            speed = np.abs(np.nan_to_num(self.v, nan=0.0, posinf=0.0, neginf=0.0)).max(axis=-1)
+            if courant is not None:
+                speed = np.where(self._runaway_nodes(), speed, -1.0)
+            idx = [int(t) for t in np.unravel_index(np.argmax(speed), speed.shape)]
+            diag.update(
+                quantity="kinetic_energy" if courant is None else "courant",
+                index=idx,
+                position_m=tuple(float(a[i]) for a, i in zip(self._node_axes(), idx, strict=True)),
+            )
+        what = f"non-finite {diag['quantity']}"
+        if diag["quantity"] == "courant":
+            diag["courant"] = courant
+            what = f"a node moved {courant:.3g} cells in one remap interval (the fastest node next to soil, "
+            what += f"{float(speed[tuple(idx)]):.3g} m/s)"
+        msg = (
+            f"instability at step {self.step_count} (t = {self.time:.6g} s, Δt = {dt:.3g} s): {what} at "
+            f"{diag['position_m']}"
+        )
+        return msg, diag
+
     # --- the pile's frame (docs/numerics.md, "The pile's frame") ------------------------------------------------
     def _init_frame(self) -> None:
         #: the grid's own vertical velocity in the laboratory (m/s; set every step by the contact in the pile's
@@ -345,7 +590,7 @@ class FieldBalances:
 
 
 @dataclass
-class SoilField(FieldBalances):
+class SoilField(EulerianField):
     grid: Grid
     material: Material
     scaling: float = 1.0
@@ -358,7 +603,7 @@ class SoilField(FieldBalances):
         nshape = (g.nx + 1, g.ny + 1, g.nz + 1)
         nstate = len(self.material.state_names)
         self.hx, self.hy, self.hz = g.hx, g.hy, g.hz
-        self.volume = g.cell_volumes()
+        self.volume = np.ascontiguousarray(g.cell_volumes())
         self.active2d = g.active2d
         self.active3 = np.ascontiguousarray(g.active)
         self.Vs = np.zeros(shape)
@@ -387,6 +632,8 @@ class SoilField(FieldBalances):
         #: node displacements since the last remap (m), when the remap is deferred (``remap_courant`` > 0)
         self.u_remap = np.zeros(nshape + (3,))
         self._node_reciprocal = tuple(1.0 / node_spacing(h) for h in (g.hx, g.hy, g.hz))
+        #: the hexahedron's characteristic length of each cell (:func:`characteristic_length`), m
+        self._cell_lengths = characteristic_length(g.hx[:, None, None], g.hy[None, :, None], g.hz[None, None, :])
         self.nmass = np.zeros(nshape)
         self.fix = g.node_constraints()
         self._init_bookkeeping()
@@ -395,115 +642,11 @@ class SoilField(FieldBalances):
         #: trial velocities of every step
         self.contact = None
 
-    # --- initial state ------------------------------------------------------------------------------------------
-    def fill_below(self, surface: float = 0.0) -> None:
-        """Soil in every active cell below z = ``surface`` (cells cut by it are partially filled)."""
-        z = self.grid.z
-        frac = np.clip((surface - z[:-1]) / self.hz, 0.0, 1.0)
-        self.Vs[...] = self.volume * frac[None, None, :] * self.active3
-
-    def geostatic(
-        self, layers: list[tuple[float, float]], k0: float, intergranular: str = "vertical"
-    ) -> None:
-        """Void ratio per layer ``(top below surface, e0)`` (surface z = 0), densities, and the geostatic stress in
-        discrete equilibrium with the lumped nodal gravity forces, so the soil is at rest from the first step.
-
-        Per column the nodal balance gives φ_b σ_zz,b = φ_a σ_zz,a − g (μ_a + μ_b)/2 between the cell a above
-        and b below a node (μ = ρ φ h_z, mass per unit area); σ_xx = σ_yy = K0 σ_zz."""
-        if not layers or layers[0][0] != 0.0:
-            raise ValueError("the first layer must start at the surface (top = 0)")
-        g = self.grid
-        depth = -g.zc
-        e0 = np.full(g.nz, layers[0][1])
-        for top, e in layers:
-            e0[depth >= top] = e
-        phi = self.Vs / self.volume
-        rho = self.grain_density / (1.0 + e0)  # scaled dry density of the soil in each cell
-        self.mass[...] = rho[None, None, :] * self.Vs
-        mu = rho[None, None, :] * phi * self.hz[None, None, :]  # mass per unit area, (nx, ny, nz)
-        szz = np.zeros_like(self.Vs)
-        s = np.zeros((g.nx, g.ny))
-        mu_above = np.zeros((g.nx, g.ny))
-        for k in range(g.nz - 1, -1, -1):
-            s = s - self.gravity * 0.5 * (mu_above + mu[:, :, k])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                szz[:, :, k] = np.where(phi[:, :, k] >= PHI_MIN, s / np.maximum(phi[:, :, k], 1e-300), 0.0)
-            mu_above = mu[:, :, k]
-        szz *= self.active3
-        self.stress[...] = 0.0
-        self.stress[..., 0] = k0 * szz
-        self.stress[..., 1] = k0 * szz
-        self.stress[..., 2] = szz
-        state0 = self.material.initial_state(float(layers[0][1]), intergranular)
-        self.state[...] = 0.0
-        self.state[..., : self.nstate] = state0
-        self.state[..., 0] = e0[None, None, :]
-        node_mass(self.mass, self.active2d, self.nmass, 0, -1, 0, -1, 0, -1)
-        full_node = float(rho.max() * self.volume[self.active3].min())
-        self.mass_tiny = 1e-9 * full_node
-        self.initial_mass = float(self.mass.sum())
-        self.dt = self.settings.safety_factor * self.stable_time_step()
-
-    def _soil_cells(self) -> np.ndarray:
-        """The cells holding soil (and taking part in the step)."""
-        return self.active3 & (self.Vs > PHI_MIN * self.volume)
-
-    def stable_time_step(self) -> float:
-        """Critical step min L_e/c over the soil cells, with c = √(M/ρ) from the current material stiffness
-        and L_e the hexahedron's characteristic length (:func:`characteristic_length`)."""
-        soil = self.active3 & (self.Vs > PHI_MIN * self.volume)
-        if not soil.any():
-            return np.inf
-        M = self._modulus_now()[soil]
-        rho = self.mass[soil] / self.Vs[soil]
-        le = characteristic_length(self.hx[:, None, None], self.hy[None, :, None], self.hz[None, None, :])
-        le = np.broadcast_to(le, self.Vs.shape)[soil]
-        dtc = le / np.sqrt(M / rho)
-        self.governing_cell = int(np.flatnonzero(soil.ravel())[np.argmin(dtc)])
-        self.dt_critical = float(dtc.min())
-        return self.dt_critical
-
-    # --- the explicit step ----------------------------------------------------------------------------------
-    def step(self, dt: float | None = None, parity: int | None = None) -> None:
-        """One explicit step: Lagrangian phase then remap. Raises :class:`InstabilityError` on NaN.
-
-        With ``remap_courant`` > 0 the remap waits until some node has moved that fraction of its cell since
-        the last one (LS-DYNA's advection cycles): the Lagrangian steps in between keep the material on the
-        grid it started from, their node displacements accumulate, and one remap with the sum moves
-        everything. The pile moves about 4e-4 of a demo cell per step, so the remap comes every ≈ 25 steps
-        at 0.02; mass stays conserved exactly."""
-        dt = self.dt if dt is None else dt
-        tm = self.timers
-        t0 = time.perf_counter()
-        if self.contact is not None:
-            self.contact.before_nodes(dt)
-        sums = self.nodal_pass(dt)
-        if self.contact is not None:
-            self.contact.apply(dt)
-        t1 = time.perf_counter()
-        dtc, arg = self.cell_pass(dt)
-        # a NaN anywhere reaches these sums (this step or the next): no extra pass over the arrays
-        if not (np.isfinite(sums[0]) and np.isfinite(sums[1])):
-            raise InstabilityError(*self._diagnose(dt))
-        t2 = time.perf_counter()
-        courant = self.pending_courant(dt)
-        if courant > 1.0 and self.settings.remap_courant < np.inf and self.runaway():
-            raise InstabilityError(*self._diagnose(dt, courant))
-        if self.remap_due(courant):
-            self._remap(dt, parity, self.u_remap)
-        t3 = time.perf_counter()
-        self.book(dt, sums, dtc, arg)
-        t4 = time.perf_counter()
-        tm["nodes"] += t1 - t0
-        tm["cells"] += t2 - t1
-        tm["remap"] += t3 - t2
-        tm["bookkeeping"] += t4 - t3
-
     # --- the phases of the step (a composite of levels calls them level by level) -------------------------------
-    def nodal_pass(self, dt: float) -> tuple[float, float, float, float, float]:
+    def nodal_pass(self, dt: float, phase: int = 0) -> tuple[float, ...]:
         """v ← v + Δt f/m at every node (:func:`advance_nodes`); returns its energy sums (kinetic, stress
-        work, viscous, hourglass, gravity work)."""
-        return advance_nodes(
+        work, viscous, hourglass, gravity work, external work: none on this grid)."""
+        return *advance_nodes(
             self.hx,
             self.hy,
             self.hz,
@@ -520,14 +663,14 @@ class SoilField(FieldBalances):
             dt,
             self.mass_tiny,
             self._force_factors,
-        )
+        ), 0.0
 
     def release_own_nonlocal_mean(self) -> None:
         """Free the per-axis weights and scratch of this field's own non-local mean: a caller that sets
         ``nonlocal_factor`` itself (nested columns) passes ``nonlocal_given`` to :meth:`cell_pass`."""
         self._nonlocal_weights, self._nonlocal_scratch = None, ()
 
-    def cell_pass(self, dt: float, nonlocal_given: bool | None = None) -> tuple[float, int]:
+    def cell_pass(self, dt: float, phase: int = 0, nonlocal_given: bool | None = None) -> tuple[float, int]:
         """Strain rates, soil model, bulk viscosity and hourglass control of every cell
         (:func:`update_cells`); returns (critical Δt, the governing cell's flat index). ``nonlocal_given``:
         whether ``nonlocal_factor`` was set by the caller for this step (True) or the local model is to be used
@@ -567,108 +710,36 @@ class SoilField(FieldBalances):
             nonlocal_,
         )
 
-    def pending_courant(self, dt: float) -> float:
-        """Add this step's node displacements to those pending for the remap (reset first when the remap
-        comes every step); returns the Courant number of the pending remap."""
-        if self.settings.remap_courant <= 0.0:
-            self.u_remap[...] = 0.0
-        self.frame_offset += self.frame_velocity * dt
-        return accumulate_displacement(*self._node_reciprocal, self.v, dt, self.u_remap, self.frame_velocity)
+    def _accumulate(self, dt: float, wz: float) -> float:
+        return accumulate_displacement(*self._node_reciprocal, self.v, dt, self.u_remap, wz)
 
-    def runaway(self) -> bool:
-        """Whether a node with soil moved more than a cell since the last remap (:func:`runaway_nodes`)."""
-        return bool(runaway_nodes(self.u_remap, self._node_reciprocal, self.Vs, self.volume).any())
-
-    def remap_due(self, courant: float) -> bool:
-        """Whether the remap comes now: after every step, or once the pending Courant number reaches
-        ``remap_courant``."""
-        rc = self.settings.remap_courant
-        return rc <= 0.0 or courant >= rc
-
-    def _remap(self, dt: float, parity: int | None, displacement: np.ndarray) -> None:
-        """Remap back to the fixed grid with the mesh motion ``displacement`` accumulated since the last
-        remap (then reset); the sweep order alternates from one remap to the next."""
-        ke_before = kinetic_energy(self.nmass, self.v)
-        lost, capped = remap(
-            self.hx,
-            self.hy,
-            self.hz,
-            self.active2d,
-            self.active3,
-            self.v,
-            dt,
-            self.Vs,
-            self.Vcur,
-            self.mass,
+    def _remap_kernel(self, dt: float, order: int, displacement: np.ndarray) -> tuple[float, float]:
+        return remap(
+            self.hx, self.hy, self.hz, self.active2d, self.active3, self.v, dt, self.Vs, self.Vcur, self.mass,
             self.stress,
-            self.state[..., 1:],  # e (component 0) is recomputed from the density below
-            self.nmass,
-            self.fbar,
-            self.remap_count if parity is None else parity,
-            self.mass_tiny,
-            self.grain_density / (1.0 + E_MAX),
-            self.grain_density / (1.0 + E_MIN),
-            displacement,
-        )
-        displacement[...] = 0.0
-        self.refill_bottom()
-        if self.contact is not None:
-            self.contact.after_remap()
-        void_ratio_from_density(
-            self.active2d, self.Vs, self.mass, self.state, self.grain_density, self.hx, self.hy, self.hz
-        )
-        self.energy["remap_kinetic_loss"] += ke_before - kinetic_energy(self.nmass, self.v)
-        self.lost_mass += lost
-        self.capped_volume += capped
-        self.remap_count += 1
+            self.state[..., 1:],  # e (component 0) is recomputed from the density
+            self.nmass, self.fbar, order, self.mass_tiny, self.grain_density / (1.0 + E_MAX),
+            self.grain_density / (1.0 + E_MIN), displacement,
+        )  # fmt: skip
+
+    def _lump_node_masses(self) -> None:
+        node_mass(self.mass, self.active2d, self.nmass, 0, -1, 0, -1, 0, -1)
 
     def _lump_bottom_rows(self) -> None:
         node_mass(self.mass, self.active2d, self.nmass, 0, -1, 0, -1, 0, 2)
 
-    def _diagnose(self, dt: float, courant: float | None = None) -> tuple[str, dict]:
-        """Where and which quantity went non-finite (cell arrays at cell centres, node arrays at nodes);
-        if every array is finite, the energy sum overflowed or (``courant`` > 1) a node moved more than a cell
-        before the remap: report the fastest node."""
-        g = self.grid
-        diag: dict = {"step": self.step_count, "time": self.time, "dt": dt}
-        cells = (
-            ("stress", self.stress),
-            ("mass", self.mass),
-            ("soil_volume", self.Vs),
-            ("viscous_pressure", self.q),
-        )
-        nodes = (("velocity", self.v), ("nodal_mass", self.nmass))
-        for kind, arrays in (("cell", cells), ("node", nodes)):
-            for name, arr in arrays:
-                bad = ~np.isfinite(arr)
-                if bad.any():
-                    i, j, k = (int(t) for t in np.argwhere(bad)[0][:3])
-                    if kind == "cell":
-                        where = (float(g.xc[i]), float(g.yc[j]), float(g.zc[k]))
-                    else:
-                        where = (float(g.x[i]), float(g.y[j]), float(g.z[k]))
-                    diag.update(quantity=name, index=[i, j, k], position_m=where)
-                    break
-            if "quantity" in diag:
-                break
-        else:
-            speed = np.abs(np.nan_to_num(self.v, nan=0.0, posinf=0.0, neginf=0.0)).max(axis=-1)
-            i, j, k = (int(t) for t in np.unravel_index(np.argmax(speed), speed.shape))
-            diag.update(
-                quantity="kinetic_energy" if courant is None else "courant",
-                index=[i, j, k],
-                position_m=(float(g.x[i]), float(g.y[j]), float(g.z[k])),
-            )
-        what = f"non-finite {diag['quantity']}"
-        if diag["quantity"] == "courant":
-            diag["courant"] = courant
-            what = f"a node moved {courant:.3g} cells in one remap interval (the fastest node"
-            what += f", {float(speed[i, j, k]):.3g} m/s)"
-        msg = (
-            f"instability at step {self.step_count} (t = {self.time:.6g} s, Δt = {dt:.3g} s): {what} at "
-            f"{diag['position_m']}"
-        )
-        return msg, diag
+    def _active_cells(self) -> np.ndarray:
+        return self.active3
+
+    def _soil_cells(self) -> np.ndarray:
+        """The cells holding soil (and taking part in the step)."""
+        return self.active3 & (self.Vs > PHI_MIN * self.volume)
+
+    def _cell_axes(self) -> tuple[np.ndarray, ...]:
+        return self.grid.xc, self.grid.yc, self.grid.zc
+
+    def _node_axes(self) -> tuple[np.ndarray, ...]:
+        return self.grid.x, self.grid.y, self.grid.z
 
     # --- diagnostics ------------------------------------------------------------------------------------------
     def soil_mass(self) -> float:
