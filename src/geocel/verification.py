@@ -1,7 +1,9 @@
 """Closed-form checks of the soil–pile system, as functions that benchmarks and tests share.
 
 * :func:`punch_curve`: a smooth rigid circular punch on weightless Tresca soil, whose limit pressure is
-  5.69 c_u (Shield 1955);
+  5.69 c_u (Shield 1955), on the Cartesian grid with its band or edge contact;
+* :func:`punch_in_scenario`: the same punch as a scenario run in the default set-up of a geometry (the cylindrical
+  layout or r–z, in the pile's frame with the split corner);
 * :func:`wished_in_place`: a rigid pile wished in place in a K0 soil under gravity, whose shaft carries
   K0 σ'_v at rest and μ times its radial force at full slip.
 """
@@ -78,6 +80,56 @@ def punch_curve(
         # soil volume the exclusion step moved out of the pile, per unit volume the punch displaced
         "moved_fraction": c.moved_volume / (0.25 * area * max(-pile.z_apex, 1e-30)),
         "viscous_fraction": e["viscous"] / max(work, 1e-30),
+    }
+
+
+def punch_in_scenario(
+    cells_per_radius: int = 8,
+    symmetry: str = "quarter",
+    radius: float = 1.0,
+    cu: float = 10.0e3,
+    out: str | None = None,
+) -> dict:
+    """Shield's smooth punch (a rigid flat pile of radius ``radius`` m pushed 8.5 % D into weightless Tresca soil,
+    c_u in Pa, E = 300 c_u, ν = 0.45, at 0.1 m/s) as a scenario with everything else at its default: for
+    ``symmetry`` "quarter" or "half" the cylindrical layout, for "axisymmetric" r–z, both in the pile's frame with
+    the split corner. Returns the settlement/D and q_b/c_u of every step (``s``, ``q``), ``surface``: q/c_u
+    extrapolated linearly from 4–7 % D back to the surface (the punch on the surface, which Shield's limit is
+    of), ``mean``: the mean over 4–8 % D, and the run's summary."""
+    import tempfile
+
+    from .config.scenario import scenario_from_dict
+    from .solver.simulation import Simulation
+
+    a = radius
+    h = a / cells_per_radius
+    d = {
+        "name": "shield-punch",
+        "domain": {"symmetry": symmetry, "radius": 5 * a, "soil_depth": 5 * a, "void_height": 3 * h, "fine_size": h,
+                   "fine_radius": 1.6 * a, "fine_depth": 1.3 * a, "growth": 1.25},
+        "soil": {"model": "tresca", "youngs_modulus": 300 * cu, "poisson_ratio": 0.45, "undrained_strength": cu,
+                 "layers": [{"top": 0.0, "e0": 0.65}]},
+        "initial": {"k0": 1.0},
+        "pile": {"type": "rigid", "diameter": 2 * a, "length": 2 * a},
+        "contact": {"friction": 0.0},
+        "loading": {"velocity": 0.1, "penetration": 0.17 * a, "ramp": 0.01 * a},
+        "solver": {"gravity": 0.0},
+        "output": {"history_every": 0.17 * a, "fields_every": 0.17 * a},
+    }  # fmt: skip
+    rows: list[tuple[float, float]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        sim = Simulation(scenario_from_dict(d), out=out or tmp, progress=False, write_fields=False)
+        sim.add_callback(lambda s: rows.append((s.contact.embedment / (2 * a), s.contact.qb() / cu)))
+        summary = sim.run()
+    s_, q_ = (np.array(c) for c in zip(*rows, strict=True))
+    fit = (s_ >= 0.04) & (s_ <= 0.07)
+    return {
+        "s": s_,
+        "q": q_,
+        "surface": float(np.polyfit(s_[fit], q_[fit], 1)[1]),
+        "mean": limit_over({"s": s_, "q": q_}),
+        "summary": summary,
+        "layout": sim.scenario.domain.layout,
     }
 
 
