@@ -629,14 +629,21 @@ class Scenario(_Table):
             raise _invalid(("domain", "frame"), "pile", "the pile's frame needs a [pile]")
         if self.solver.multirate_levels > 0 and self.domain.symmetry != "axisymmetric":  # (cylindrical: a 3D one)
             raise _invalid(
-                ("solver", "multirate_levels"), self.solver.multirate_levels, 'an option of symmetry = "axisymmetric"'
+                ("solver", "multirate_levels"),
+                self.solver.multirate_levels,
+                'an option of symmetry = "axisymmetric" (the 3D kernels have no levels yet)',
             )
         if self.pile is not None:
             self._check_pile_geometry()
             if self.domain.symmetry == "axisymmetric" or self.domain.layout == "cylindrical":
                 self._check_axisymmetric_pile()
             elif self.contact.rim != "base":
-                raise _invalid(("contact", "rim"), self.contact.rim, 'an option of symmetry = "axisymmetric"')
+                raise _invalid(
+                    ("contact", "rim"),
+                    self.contact.rim,
+                    'an option of the ring geometries (symmetry = "axisymmetric", layout = "cylindrical"), whose base '
+                    "is a node row; a Cartesian grid's base has no rim node",
+                )
             if self.domain.layout == "cylindrical":
                 if self.contact.rim == "split":
                     raise _invalid(("contact", "rim"), "split", 'the cylindrical layout has "corner", "base", "shaft"')
