@@ -29,7 +29,6 @@ from ..euler.axisym import (
 )
 from ..euler.axisym_remap import remap_rz
 from ..euler.lagrange import PHI_MIN
-from ..euler.nonlocal_mean import reaches_a_neighbour
 from ..grid.axisym import AxisymmetricGrid
 from ..materials.tensor import KERNEL_OPTIONS
 from .field import (
@@ -84,52 +83,19 @@ class AxisymmetricField(EulerianField):
     def __post_init__(self) -> None:
         g = self.grid
         self._init_material()
-        shape = g.shape
-        nshape = (g.nr + 1, g.nz + 1)
-        self.nstate = len(self.material.state_names)
         self.r, self.hr, self.hz, self.rc = g.r, g.hr, g.hz, g.rc
-        self.volume = np.ascontiguousarray(g.cell_volumes())
-        self.active = np.ones(shape, dtype=np.bool_)
-        self.Vs = np.zeros(shape)
-        self.Vcur = self.volume.copy()
-        self.mass = np.zeros(shape)
-        self.stress = np.zeros(shape + (6,))
-        #: the material's state, then the two hourglass generalised stresses (per unit soil volume, Pa)
-        self.state = np.zeros(shape + (self.nstate + HOURGLASS_STATE_RZ,))
-        self.q = np.zeros(shape)
-        self.hg = np.zeros(shape + (2,))
-        self.modulus = np.zeros(shape)
-        self.flags = np.zeros(shape, dtype=np.int64)
-        self.fbar = np.zeros(shape)
-        self._remap_work: dict = {}  # the remap's buffers
-        self.v = np.zeros(nshape + (2,))
-        self.nmass = np.zeros(nshape)
-        self.fix = g.node_constraints()
-        self.prescribed = np.zeros(nshape + (2,))
-        self.external_force = np.zeros(nshape + (2,))
-        self.reaction = np.zeros(nshape + (2,))
-        self.u_remap = np.zeros(nshape + (2,))
-        self._force_factors = np.empty(shape + (FORCE_FACTORS_RZ,))  # scratch of the nodal pass
-        #: the non-local factors max(1, ‖D‖*/‖D‖) of the last step (1 for a local soil model) and their scratch
-        self.nonlocal_factor = np.ones(shape)
-        #: the per-axis weights of the non-local mean; None for a local model or a length that reaches no
-        #: neighbouring cell (then the model is the local one)
-        self._nonlocal_weights = (
-            nonlocal_weights_rz(g.rc, g.zc, self.nonlocal_length) if self.nonlocal_length > 0 else None
+        self._init_arrays(
+            (g.nr + 1, g.nz + 1, 2),
+            (HOURGLASS_STATE_RZ,),
+            FORCE_FACTORS_RZ,
+            (1.0 / node_spacing(g.hr), 1.0 / node_spacing(g.hz)),
+            characteristic_length_rz(g.hr[:, None], g.hz[None, :]),
+            nonlocal_weights_rz(g.rc, g.zc, self.nonlocal_length) if self.nonlocal_length > 0 else None,
+            ring=True,
         )
-        if self._nonlocal_weights is not None and not reaches_a_neighbour(self._nonlocal_weights):
-            self._nonlocal_weights = None
-        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(5)) if self._nonlocal_weights else ()
+        self._reciprocal_axes = (0, 1)
         # the step at which the current multi-rate cycle's non-local values were all computed (−1: none)
         self._nonlocal_cycle = -1
-        self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / node_spacing(g.hz))
-        self._reciprocal_axes = (0, 1)
-        #: each cell's length L_e of the stable step (:func:`characteristic_length_rz`), m
-        self._cell_lengths = characteristic_length_rz(g.hr[:, None], g.hz[None, :])
-        self._init_bookkeeping()
-        #: contact with a pile (:class:`geocel.contact.axisym.AxisymmetricPileContact`), applied to the trial
-        #: velocities of every step
-        self.contact = None
         #: a node split by the contact at the pile's corner (``rim = "corner"``): (i, k, the vertical velocity
         #: the cells left of it see, the radial one the cell right of and above it sees) in the step, and the
         #: same with the mesh motions in the remap; i < 0: none (geocel.euler.axisym.split_gradient_rz)
@@ -140,9 +106,9 @@ class AxisymmetricField(EulerianField):
         # multi-rate (settings.multirate_levels > 0; assign_levels_rz): each cell's last stable step (s; 0: not
         # yet known, level 0), the cells' and nodes' levels of the cycle, and the cycle's clock (the step's
         # place in it, the cycle's Δt); all levels 0 in a single-rate step
-        self.cell_dt = np.zeros(shape)
-        self.cell_level = np.zeros(shape, dtype=np.int8)
-        self.node_level = np.zeros(nshape, dtype=np.int8)
+        self.cell_dt = np.zeros(g.shape)
+        self.cell_level = np.zeros(g.shape, dtype=np.int8)
+        self.node_level = np.zeros((g.nr + 1, g.nz + 1), dtype=np.int8)
         self.multirate_clock = np.zeros(2)
         #: the nodes kept at level 0: the first ``level0_nodes[0]`` columns from the row ``level0_nodes[1]`` up (set by
         #: the contact: the nodes it projects)

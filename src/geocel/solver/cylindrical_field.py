@@ -17,7 +17,6 @@ from numba import njit
 
 from ..euler.cylindrical import (
     FORCE_FACTORS_CYL,
-    HOURGLASS_STATE_CYL,
     advance_nodes_cyl,
     follow_masters,
     node_mass_cyl,
@@ -27,7 +26,6 @@ from ..euler.cylindrical import (
 )
 from ..euler.cylindrical_remap import remap_cyl, tensor_offsets
 from ..euler.lagrange import characteristic_length
-from ..euler.nonlocal_mean import reaches_a_neighbour
 from ..grid.cylindrical import CylindricalGrid
 from ..materials.tensor import KERNEL_OPTIONS
 from .field import E_MAX, E_MIN, EulerianField, Material, SolverSettings, node_spacing
@@ -82,50 +80,24 @@ class CylindricalField(EulerianField):
     def __post_init__(self) -> None:
         g = self.grid
         self._init_material()
-        shape = g.shape
-        nshape = (g.nr + 1, g.ntheta + 1, g.nz + 1)
-        self.nstate = len(self.material.state_names)
         self.hr, self.hz, self.rc, self.dtheta = g.hr, g.hz, g.rc, g.dtheta
-        self.volume = np.ascontiguousarray(g.cell_volumes())
-        self.Vs = np.zeros(shape)
-        self.mass = np.zeros(shape)
-        self.stress = np.zeros(shape + (6,))
-        #: the material's state, then the 12 hourglass generalised stresses (Pa)
-        self.state = np.zeros(shape + (self.nstate + HOURGLASS_STATE_CYL,))
-        self.q = np.zeros(shape)
-        self.hg = np.zeros(shape + (4, 3))
-        self.modulus = np.zeros(shape)
-        self.flags = np.zeros(shape, dtype=np.int64)
-        self.v = np.zeros(nshape + (3,))
-        self.nmass = np.zeros(nshape)
-        self.fix = g.node_constraints()
-        self.prescribed = np.zeros(nshape + (3,))
-        self.external_force = np.zeros(nshape + (3,))
-        self.reaction = np.zeros(nshape + (3,))
-        self._force_factors = np.empty(shape + (FORCE_FACTORS_CYL,))
-        self.Vcur = self.volume.copy()
-        self.fbar = np.zeros(shape)
-        self.u_remap = np.zeros(nshape + (3,))
-        self._remap_work: dict = {}
         # the reciprocal node spacings of the pending remap's Courant number: h_r, the arc r Δθ (r₁Δθ at the
-        # axis), h_z
+        # axis), h_z; each cell's L_e of the stable step: the local box h_r × r_c Δθ × h_z (a tied group's arc; the
+        # axis ring: its outer arc)
         arcs = np.maximum(g.r, g.r[1]) * g.dtheta * g.node_factors()
-        self._node_reciprocal = (1.0 / node_spacing(g.hr), 1.0 / arcs, 1.0 / node_spacing(g.hz))
+        self._init_arrays(
+            (g.nr + 1, g.ntheta + 1, g.nz + 1, 3),
+            (4, 3),
+            FORCE_FACTORS_CYL,
+            (1.0 / node_spacing(g.hr), 1.0 / arcs, 1.0 / node_spacing(g.hz)),
+            characteristic_length(g.hr[:, None, None], g.ring_arcs()[:, None, None], g.hz[None, None, :]),
+            nonlocal_weights_cyl(g.rc, g.zc, self.nonlocal_length) if self.nonlocal_length > 0 else None,
+            ring=True,
+        )
         self._reciprocal_axes = (0, 0, 2)  # (the arc r Δθ varies with the ring)
-        #: each cell's L_e of the stable step: the local box h_r × r_c Δθ × h_z (a tied group's arc; the axis ring:
-        #: its outer arc), m
-        self._cell_lengths = characteristic_length(g.hr[:, None, None], g.ring_arcs()[:, None, None], g.hz[None, None, :])
         self._state_tensors = tensor_offsets(self.material.state_names[1:])
         self._node_factors = g.node_factors()
         self._tied = bool(g.ties.max() > 1)
-        #: the non-local factors max(1, ‖D‖*/‖D‖) of the last step (1 for a local soil model), their weights (None:
-        #: the local model, or a length that reaches no neighbouring cell) and scratch
-        self.nonlocal_factor = np.ones(shape)
-        w = nonlocal_weights_cyl(g.rc, g.zc, self.nonlocal_length) if self.nonlocal_length > 0 else None
-        self._nonlocal_weights = w if (w is not None and reaches_a_neighbour(w)) else None
-        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(6)) if self._nonlocal_weights else ()
-        #: the cells that take part in the remap (the pile's cells in its frame do not)
-        self.active = np.ones(shape, dtype=np.bool_)
         #: a ring of nodes split at the pile's corner (``rim = "corner"``; geocel.euler.cylindrical
         #: velocity_gradient_cyl): (i, k), −1: none, and per node line the vertical velocity the cells under the
         #: base's edge see and the radial one the cells beside the shaft see; the same with the mesh motions
@@ -137,9 +109,6 @@ class CylindricalField(EulerianField):
         self.remap_split_r = np.zeros(g.ntheta + 1)
         #: the contact's correction to the kinetic energy of the step (J; the parts of the split nodes)
         self.kinetic_correction = 0.0
-        #: contact with a pile (:class:`geocel.contact.cylindrical.CylindricalPileContact`)
-        self.contact = None
-        self._init_bookkeeping()
 
     # --- what the cylindrical geometry supplies to the step (geocel.solver.field.EulerianField) -----------------
     def nodal_pass(self, dt: float, phase: int = 0) -> tuple[float, ...]:

@@ -305,6 +305,63 @@ class EulerianField:
             return 0.0
         return (self.soil_mass() + self.lost_mass - self.inflow_mass - self.initial_mass) / self.initial_mass
 
+    # --- the arrays ----------------------------------------------------------------------------------------
+    def _init_arrays(
+        self,
+        node_shape: tuple[int, ...],
+        hourglass_shape: tuple[int, ...],
+        force_factors: int,
+        reciprocals: tuple[np.ndarray, ...],
+        cell_lengths: np.ndarray,
+        weights: tuple | None,
+        ring: bool,
+    ) -> None:
+        """The arrays every geometry keeps, after :meth:`_init_material`: per cell (the grid's shape, z last) soil
+        volume ``Vs``, volume, mass, stress, state (the model's, then the hourglass generalised stresses, per unit
+        soil volume, Pa), viscous pressure ``q``, hourglass resistance ``hg`` (``hourglass_shape`` per cell), P-wave
+        modulus, rule flags; per node (``node_shape``, the velocity's components last) velocity, mass, fixed
+        components and the displacement pending for the remap; the nodal pass's scratch (``force_factors`` per
+        cell); the non-local factors with their per-axis ``weights`` (None: the local model, or a length that
+        reaches no neighbouring cell); the reciprocal node spacings of the Courant number; each cell's ``L_e``
+        for Δt. ``ring`` (r–z, cylindrical): also the prescribed velocities, external forces and reactions of the
+        nodes, the remap's activity mask and scratch."""
+        g = self.grid
+        shape = tuple(g.shape)
+        self.nstate = len(self.material.state_names)
+        self.volume = np.ascontiguousarray(g.cell_volumes())
+        self.Vs = np.zeros(shape)
+        self.Vcur = self.volume.copy()
+        self.mass = np.zeros(shape)
+        self.stress = np.zeros(shape + (6,))
+        self.state = np.zeros(shape + (self.nstate + int(np.prod(hourglass_shape)),))
+        self.q = np.zeros(shape)
+        self.hg = np.zeros(shape + hourglass_shape)
+        self.modulus = np.zeros(shape)
+        self.flags = np.zeros(shape, dtype=np.int64)
+        self.fbar = np.zeros(shape)
+        self._force_factors = np.empty(shape + (force_factors,))  # (every entry is written before it is read)
+        self.v = np.zeros(node_shape)
+        self.nmass = np.zeros(node_shape[:-1])
+        self.fix = g.node_constraints()
+        #: node displacements since the last remap (m), when the remap is deferred (``remap_courant`` > 0)
+        self.u_remap = np.zeros(node_shape)
+        self._node_reciprocal = reciprocals
+        self._cell_lengths = cell_lengths
+        #: the non-local factors max(1, ‖D‖*/‖D‖) of the last step (1 for a local soil model) and their scratch
+        self.nonlocal_factor = np.ones(shape)
+        self._nonlocal_weights = weights if (weights is not None and reaches_a_neighbour(weights)) else None
+        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(6)) if self._nonlocal_weights else ()
+        if ring:
+            self.prescribed = np.zeros(node_shape)
+            self.external_force = np.zeros(node_shape)
+            self.reaction = np.zeros(node_shape)
+            #: the cells that take part in the remap (the pile's cells in its frame do not)
+            self.active = np.ones(shape, dtype=np.bool_)
+            self._remap_work: dict = {}  # the remap's buffers
+        #: contact with a pile, applied to the trial velocities of every step
+        self.contact = None
+        self._init_bookkeeping()
+
     # --- the initial state ---------------------------------------------------------------------------------
     def _active_cells(self) -> np.ndarray | bool:
         """The cells that belong to the domain (the Cartesian grids mask the container's outside)."""
@@ -599,48 +656,19 @@ class SoilField(EulerianField):
     def __post_init__(self) -> None:
         g = self.grid
         self._init_material()
-        shape = g.shape
-        nshape = (g.nx + 1, g.ny + 1, g.nz + 1)
-        nstate = len(self.material.state_names)
         self.hx, self.hy, self.hz = g.hx, g.hy, g.hz
-        self.volume = np.ascontiguousarray(g.cell_volumes())
         self.active2d = g.active2d
         self.active3 = np.ascontiguousarray(g.active)
-        self.Vs = np.zeros(shape)
-        self.Vcur = self.volume.copy()
-        self.mass = np.zeros(shape)
-        self.stress = np.zeros(shape + (6,))
-        #: the material's state, then the hourglass control's 12 generalised stresses (per unit soil volume, Pa)
-        #: and tangent shear modulus (Pa), so that the remap and the contact's exclusion step carry them
-        self.nstate = nstate
-        self.state = np.zeros(shape + (nstate + HOURGLASS_STATE,))
-        self.q = np.zeros(shape)
-        self.hg = np.zeros(shape + (4, 3))
-        self._force_factors = np.empty(shape + (FORCE_FACTORS,))  # scratch of the nodal pass
-        self.modulus = np.zeros(shape)
-        self.flags = np.zeros(shape, dtype=np.int64)
-        self.fbar = np.zeros(shape)
-        #: the non-local factors max(1, ‖D‖*/‖D‖) of the last step (1 for a local soil model) and their scratch
-        self.nonlocal_factor = np.ones(shape)
-        #: the per-axis weights of the non-local mean; None for a local model or a length that reaches no
-        #: neighbouring cell (then the model is the local one)
-        self._nonlocal_weights = nonlocal_weights(g, self.nonlocal_length) if self.nonlocal_length > 0 else None
-        if self._nonlocal_weights is not None and not reaches_a_neighbour(self._nonlocal_weights):
-            self._nonlocal_weights = None
-        self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(6)) if self._nonlocal_weights else ()
-        self.v = np.zeros(nshape + (3,))
-        #: node displacements since the last remap (m), when the remap is deferred (``remap_courant`` > 0)
-        self.u_remap = np.zeros(nshape + (3,))
-        self._node_reciprocal = tuple(1.0 / node_spacing(h) for h in (g.hx, g.hy, g.hz))
-        #: the hexahedron's characteristic length of each cell (:func:`characteristic_length`), m
-        self._cell_lengths = characteristic_length(g.hx[:, None, None], g.hy[None, :, None], g.hz[None, None, :])
-        self.nmass = np.zeros(nshape)
-        self.fix = g.node_constraints()
-        self._init_bookkeeping()
+        self._init_arrays(
+            (g.nx + 1, g.ny + 1, g.nz + 1, 3),
+            (4, 3),
+            FORCE_FACTORS,
+            tuple(1.0 / node_spacing(h) for h in (g.hx, g.hy, g.hz)),
+            characteristic_length(g.hx[:, None, None], g.hy[None, :, None], g.hz[None, None, :]),
+            nonlocal_weights(g, self.nonlocal_length) if self.nonlocal_length > 0 else None,
+            ring=False,
+        )
         self.rule_counts: dict[str, int] = {}
-        #: contact with a Lagrangian body (:class:`geocel.contact.coupling.ContactCoupling`), applied to the
-        #: trial velocities of every step
-        self.contact = None
 
     # --- the phases of the step (a composite of levels calls them level by level) -------------------------------
     def nodal_pass(self, dt: float, phase: int = 0) -> tuple[float, ...]:
