@@ -886,9 +886,13 @@ class AxisymmetricPileContact:
                 self._v_comb = None
 
     # --- checkpoints -----------------------------------------------------------------------------------------
-    def state_arrays(self) -> dict[str, np.ndarray]:
-        """Everything of the pile and the contact a restart needs (copies), by name (a pile body's own arrays
-        with the prefix ``body_``)."""
+    #: the contact's force arrays a checkpoint keeps
+    saved_arrays: tuple[str, ...] = ("base_force", "shaft_force", "shaft_normal", "shaft_friction")
+
+    def _saved_scalars(self) -> tuple[list[float], dict[str, np.ndarray]]:
+        """The scalars every ring contact's checkpoint starts with (the rigid pile's position, velocity and clock,
+        or NaN and a pile body's own arrays with the prefix ``body_``; the contact's work and counters; the pile's
+        frame: 14 in all) and the body's arrays."""
         p = self.pile
         body: dict[str, np.ndarray] = {}
         if isinstance(p, RigidPileRZ):
@@ -896,23 +900,12 @@ class AxisymmetricPileContact:
         else:
             scalars = [math.nan] * 3
             body = {f"body_{k}": v for k, v in p.state_arrays().items()}
-        scalars += [self._pile_motion, self._z_remap, self.soil_work]
-        scalars += [self.friction_work, self.worst_friction_excess, self.clamped_motion, self.contact_nodes]
-        scalars += self.field.frame_scalars()  # the pile's frame (its inflow reference is rebuilt with the model)
-        vc = (math.nan, math.nan) if self._v_comb is None else self._v_comb
-        scalars += [*self._corner, *vc, self._u_in, self._u_B]
-        return {
-            "scalars": np.array(scalars, dtype=float),
-            "base_force": self.base_force.copy(),
-            "shaft_force": self.shaft_force.copy(),
-            "shaft_normal": self.shaft_normal.copy(),
-            "shaft_friction": self.shaft_friction.copy(),
-            **body,
-        }
+        scalars += [self._pile_motion, self._z_remap, self.soil_work, self.friction_work, self.worst_friction_excess]
+        scalars += [self.clamped_motion, self.contact_nodes, *self.field.frame_scalars()]
+        return scalars, body
 
-    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
-        """The state saved by :meth:`state_arrays`."""
-        sc = [float(x) for x in arrays["scalars"]]
+    def _restore_saved_scalars(self, sc: list[float], arrays: dict[str, np.ndarray]) -> None:
+        """Restore what :meth:`_saved_scalars` saved, and the force arrays (:attr:`saved_arrays`)."""
         p = self.pile
         if isinstance(p, RigidPileRZ):
             p.z_base, p.velocity, p.time = sc[:3]
@@ -923,12 +916,29 @@ class AxisymmetricPileContact:
         self.contact_nodes = int(sc[9])
         if len(sc) > 10:  # (checkpoints before the pile's frame: a fixed grid)
             self.field.restore_frame(sc[10:14])
+        for name in self.saved_arrays:
+            getattr(self, name)[...] = arrays[name]
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """Everything of the pile and the contact a restart needs (copies), by name (a pile body's own arrays
+        with the prefix ``body_``): :meth:`_saved_scalars`, then the split corner's node."""
+        scalars, body = self._saved_scalars()
+        vc = (math.nan, math.nan) if self._v_comb is None else self._v_comb
+        scalars += [*self._corner, *vc, self._u_in, self._u_B]
+        return {
+            "scalars": np.array(scalars, dtype=float),
+            **{name: getattr(self, name).copy() for name in self.saved_arrays},
+            **body,
+        }
+
+    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        """The state saved by :meth:`state_arrays`."""
+        sc = [float(x) for x in arrays["scalars"]]
+        self._restore_saved_scalars(sc, arrays)
         if len(sc) > 14:  # (checkpoints before rim = "corner")
             self._corner[:] = sc[14:18]
             self._v_comb = None if math.isnan(sc[18]) else (sc[18], sc[19])
             self._u_in, self._u_B = sc[20:22]
-        for name in ("base_force", "shaft_force", "shaft_normal", "shaft_friction"):
-            getattr(self, name)[...] = arrays[name]
 
     # --- what users look at ----------------------------------------------------------------------------------
     def embedded_length(self) -> float:

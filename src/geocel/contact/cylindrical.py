@@ -518,17 +518,12 @@ class CylindricalPileContact(AxisymmetricPileContact):
                 self._v_ring = None
 
     # --- checkpoints -----------------------------------------------------------------------------------------
+    saved_arrays = (*AxisymmetricPileContact.saved_arrays, "line_normal", "line_friction")
+
     def state_arrays(self) -> dict[str, np.ndarray]:
-        """Everything of the pile and the contact a restart needs (copies), by name."""
-        p = self.pile
-        body: dict[str, np.ndarray] = {}
-        if isinstance(p, RigidPileRZ):
-            scalars = [p.z_base, p.velocity, p.time]
-        else:
-            scalars = [math.nan] * 3
-            body = {f"body_{k}": v for k, v in p.state_arrays().items()}
-        scalars += [self._pile_motion, self._z_remap, self.soil_work, self.friction_work, self.worst_friction_excess]
-        scalars += [self.clamped_motion, self.contact_nodes, *self.field.frame_scalars()]
+        """Everything of the pile and the contact a restart needs (copies), by name: the r–z contact's
+        scalars, then the split ring's node arrays."""
+        scalars, body = self._saved_scalars()
         ring = np.full((self._corner.shape[0], 2), np.nan) if self._v_ring is None else self._v_ring
         return {
             "scalars": np.array(scalars, dtype=float),
@@ -536,33 +531,19 @@ class CylindricalPileContact(AxisymmetricPileContact):
             "v_ring": ring.copy(),
             "u_in": self._u_in.copy(),
             "u_B": self._u_B.copy(),
-            **{name: getattr(self, name).copy() for name in _ARRAYS},
+            **{name: getattr(self, name).copy() for name in self.saved_arrays},
             **body,
         }
 
     def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
         """The state saved by :meth:`state_arrays`."""
-        sc = [float(x) for x in arrays["scalars"]]
-        p = self.pile
-        if isinstance(p, RigidPileRZ):
-            p.z_base, p.velocity, p.time = sc[:3]
-        else:
-            p.restore_arrays({k[5:]: v for k, v in arrays.items() if k.startswith("body_")})
-        self._pile_motion, self._z_remap, self.soil_work, self.friction_work, self.worst_friction_excess = sc[3:8]
-        self.clamped_motion = sc[8]
-        self.contact_nodes = int(sc[9])
-        self.field.restore_frame(sc[10:14])
+        self._restore_saved_scalars([float(x) for x in arrays["scalars"]], arrays)
         self._corner[...] = arrays["corner"]
         ring = np.asarray(arrays["v_ring"])
         self._v_ring = None if np.isnan(ring).all() else ring.copy()
         self._u_in[:] = arrays["u_in"]
         self._u_B[:] = arrays["u_B"]
-        for name in _ARRAYS:
-            getattr(self, name)[...] = arrays[name]
 
-
-#: the contact's force arrays kept in a checkpoint
-_ARRAYS = ("base_force", "shaft_force", "shaft_normal", "shaft_friction", "line_normal", "line_friction")
 
 
 class _LineView:
