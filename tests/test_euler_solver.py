@@ -462,3 +462,47 @@ def test_physical_hourglass_stiffness_is_the_strain_energy_of_the_mode_and_has_n
     assert _hourglass_force(1e-4, 20, 160000.0, shape=(hx, hy, hz))[0] == pytest.approx(q1, rel=1e-9)
     big = _hourglass_force(1.0, 20, 1600.0, shape=(hx, hy, hz))[0]
     assert big == pytest.approx(1e4 * q1, rel=1e-9) and big > 10 * 0.1 * 100e3 * (hx * hy * hz) ** (2 / 3)
+
+
+@pytest.mark.parametrize("load", ["prescribed", "external"])
+def test_a_damped_column_under_a_top_load_settles_to_the_oedometric_solution(load):
+    """Dynamic relaxation on the Cartesian grid (``damping``, ``prescribed``, ``external_force``, ``reaction``, as in
+    the r–z and cylindrical fields): a weightless elastic column (quarter, 2 × 2 × 6 cells of 0.1 m, lateral
+    rollers, fixed base) is compressed from the top, either by the top nodes' prescribed velocity (settlement u)
+    or by external forces that total the oedometric σ_zz = −M u/H over the top (each node its tributary area). At
+    rest it must hold the 1D solution: σ_zz = −M u/H, σ_xx = σ_yy = ν/(1 − ν) σ_zz in every cell, the top's
+    reactions summing to σ_zz A (prescribed) or the top settled by u (external), all to 1e-3; and the energy
+    balance closes (damping counted as dissipation) to 1e-6 of the work."""
+    E, nu, h, n = 10e6, 0.3, 0.1, 6
+    M = E * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
+    grid = Grid.uniform((2, 2, n), h, origin=(0.0, 0.0, -n * h), symmetry="quarter")
+    f = SoilField(grid, Elastic(youngs_modulus=E, poisson_ratio=nu), damping=400.0,
+                  settings=SolverSettings(gravity=0.0, remap_courant=np.inf))  # fmt: skip
+    f.fill_below(0.0)
+    f.geostatic([(0.0, 0.65)], k0=0.5)
+    H, A, u = n * h, (2 * h) ** 2, 1e-4
+    szz = -M * u / H
+    top = np.s_[:, :, -1]
+    if load == "prescribed":
+        f.fix[top + (2,)] = True
+    else:  # tributary areas of the top nodes: a quarter of each adjacent cell's top face
+        w = np.array([0.5, 1.0, 0.5]) * h
+        f.external_force[top + (2,)] = szz * np.outer(w, w)
+    z0 = 0.0  # the top's displacement, Σ v^{n+½} Δt
+    T = 0.02
+    while f.time < 0.3:
+        if load == "prescribed":
+            f.prescribed[top + (2,)] = -u / T if f.time < T else 0.0
+        dt = f.dt
+        f.step()
+        z0 += f.v[0, 0, -1, 2] * dt
+    assert np.abs(f.v).max() < 1e-6
+    if load == "prescribed":  # (the last step of the push may end past T: the settlement is the top's)
+        szz = M * z0 / H
+    np.testing.assert_allclose(f.stress[..., 2], szz, rtol=1e-3)
+    np.testing.assert_allclose(f.stress[..., 0], nu / (1 - nu) * szz, rtol=1e-3)
+    if load == "prescribed":
+        assert f.reaction[top + (2,)].sum() == pytest.approx(szz * A, rel=1e-3)
+    else:
+        assert z0 == pytest.approx(-u, rel=1e-3)
+    assert abs(f.energy_balance_error()) < 1e-6 * abs(f.energy["external_work"])

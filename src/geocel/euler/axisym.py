@@ -279,10 +279,10 @@ def advance_nodes_rz(
             r0 = 0.0
             r1 = 0.0
             if fix[i, k, 0]:
-                r0 = (vfix[i, k, 0] - v0) / c
+                r0 = (1.0 + a_half) * (vfix[i, k, 0] - v0) / c  # (as geocel.euler.lagrange.advance_component)
                 v0 = vfix[i, k, 0]
             if fix[i, k, 1]:
-                r1 = (vfix[i, k, 1] - v1) / c
+                r1 = (1.0 + a_half) * (vfix[i, k, 1] - v1) / c
                 v1 = vfix[i, k, 1]
             reaction[i, k, 0] = r0
             reaction[i, k, 1] = r1

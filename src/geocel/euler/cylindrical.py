@@ -53,6 +53,7 @@ from .lagrange import (
     hourglass_modes,
     increments,
     material_update,
+    update_node,
 )
 from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
 
@@ -229,52 +230,6 @@ def gather_node_force_cyl(i, j, k, cf, ties, nr, nt, nz):
     return (fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2)
 
 
-@njit(inline="always", **KERNEL_OPTIONS)
-def _advance(m, o, f, fx, fix, vfix, gz_force, a_half, dt):
-    """One node's update of component-wise forces: returns (new velocity, reaction) of one component."""
-    c = dt / m
-    v = ((1.0 - a_half) * o + c * (f + fx + gz_force)) / (1.0 + a_half)
-    r = 0.0
-    if fix:
-        r = (vfix - v) / c
-        v = vfix
-    return v, r
-
-
-@njit(inline="always", **KERNEL_OPTIONS)
-def _update_node(i, j, k, m, g, v, fix, vfix, fext, reaction, gravity, a_half, dt, e):
-    """One independent node's central-difference update from its forces ``g`` (9-tuple) and mass m; its energy
-    terms are added to ``e`` (kinetic, stresses' work, viscous, hourglass, gravity, external)."""
-    fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2 = g
-    fgz = -m * gravity
-    o0 = v[i, j, k, 0]
-    o1 = v[i, j, k, 1]
-    o2 = v[i, j, k, 2]
-    x0 = fext[i, j, k, 0]
-    x1 = fext[i, j, k, 1]
-    x2 = fext[i, j, k, 2]
-    v0, r0 = _advance(m, o0, fs0 + fq0 + fh0, x0, fix[i, j, k, 0], vfix[i, j, k, 0], 0.0, a_half, dt)
-    v1, r1 = _advance(m, o1, fs1 + fq1 + fh1, x1, fix[i, j, k, 1], vfix[i, j, k, 1], 0.0, a_half, dt)
-    v2, r2 = _advance(m, o2, fs2 + fq2 + fh2, x2, fix[i, j, k, 2], vfix[i, j, k, 2], fgz, a_half, dt)
-    v[i, j, k, 0] = v0
-    v[i, j, k, 1] = v1
-    v[i, j, k, 2] = v2
-    reaction[i, j, k, 0] = r0
-    reaction[i, j, k, 1] = r1
-    reaction[i, j, k, 2] = r2
-    m0 = 0.5 * (o0 + v0)
-    m1 = 0.5 * (o1 + v1)
-    m2 = 0.5 * (o2 + v2)
-    mm = m0 * m0 + m1 * m1 + m2 * m2
-    e[0] += 0.5 * m * mm
-    e[1] -= (fs0 * m0 + fs1 * m1 + fs2 * m2) * dt
-    e[2] -= (fq0 * m0 + fq1 * m1 + fq2 * m2) * dt
-    e[2] += 2.0 * a_half / dt * m * mm * dt
-    e[3] -= (fh0 * m0 + fh1 * m1 + fh2 * m2) * dt
-    e[4] += fgz * m2 * dt
-    e[5] += ((x0 + r0) * m0 + (x1 + r1) * m1 + (x2 + r2) * m2) * dt
-
-
 @njit(**KERNEL_OPTIONS)
 def _advance_ring(i, cf, ties, nmass, v, fix, vfix, fext, reaction, gravity, a_half, dt, mtiny, nr, nt, nz, e):
     """Node ring i of :func:`advance_nodes_cyl` (its parallel loop's body as a function of its own: it compiles in
@@ -295,7 +250,7 @@ def _advance_ring(i, cf, ties, nmass, v, fix, vfix, fext, reaction, gravity, a_h
                     v[0, 0, k, d] = vfix[0, 0, k, d] if fix[0, 0, k, d] else 0.0
                     reaction[0, 0, k, d] = 0.0
             else:
-                _update_node(0, 0, k, m, g, v, fix, vfix, fext, reaction, gravity, a_half, dt, e)
+                update_node(0, 0, k, m, g, v, fix, vfix, fext, reaction, gravity, a_half, dt, e)
             for jj in range(1, nt + 1):
                 for d in range(3):
                     v[0, jj, k, d] = v[0, 0, k, d]
@@ -317,7 +272,7 @@ def _advance_ring(i, cf, ties, nmass, v, fix, vfix, fext, reaction, gravity, a_h
                     reaction[i, j, k, d] = 0.0
                 continue
             g = (buf[j, 0], buf[j, 1], buf[j, 2], buf[j, 3], buf[j, 4], buf[j, 5], buf[j, 6], buf[j, 7], buf[j, 8])
-            _update_node(i, j, k, m, g, v, fix, vfix, fext, reaction, gravity, a_half, dt, e)
+            update_node(i, j, k, m, g, v, fix, vfix, fext, reaction, gravity, a_half, dt, e)
         if M > 1:
             for j in range(nt + 1):
                 r = j % M

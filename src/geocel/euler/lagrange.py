@@ -225,9 +225,65 @@ def advance_node(m, g, ox, oy, oz, fixx, fixy, fixz, gravity, dt):
     return vx, vy, vz, ke, wi, wv, wh, wg
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def advance_component(m, o, f, fx, fix, vfix, gz_force, a_half, dt):
+    """One node's update of component-wise forces: returns (new velocity, reaction) of one component."""
+    c = dt / m
+    v = ((1.0 - a_half) * o + c * (f + fx + gz_force)) / (1.0 + a_half)
+    r = 0.0
+    if fix:
+        r = (1.0 + a_half) * (vfix - v) / c  # (the support's force: with the damping of the free update undone)
+        v = vfix
+    return v, r
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def update_node(i, j, k, m, g, v, fix, vfix, fext, reaction, gravity, a_half, dt, e):
+    """Node (i, j, k)'s central-difference update (the Cartesian grids' and the cylindrical layout's: node arrays
+    (·, ·, ·, 3)) from its forces ``g`` (9-tuple of :func:`gather_node_force`) and mass m, with the external force
+    ``fext``, the mass-proportional damping ``a_half`` = α Δt/2 and the fixed components taking ``vfix`` (their
+    reaction to ``reaction``); its energy terms are added to ``e`` (kinetic, stresses' work, viscous, hourglass,
+    gravity, external). With no damping, external force or prescribed velocity it is :func:`advance_node` to the
+    bit."""
+    fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2 = g
+    fgz = -m * gravity
+    o0 = v[i, j, k, 0]
+    o1 = v[i, j, k, 1]
+    o2 = v[i, j, k, 2]
+    x0 = fext[i, j, k, 0]
+    x1 = fext[i, j, k, 1]
+    x2 = fext[i, j, k, 2]
+    v0, r0 = advance_component(m, o0, fs0 + fq0 + fh0, x0, fix[i, j, k, 0], vfix[i, j, k, 0], 0.0, a_half, dt)
+    v1, r1 = advance_component(m, o1, fs1 + fq1 + fh1, x1, fix[i, j, k, 1], vfix[i, j, k, 1], 0.0, a_half, dt)
+    v2, r2 = advance_component(m, o2, fs2 + fq2 + fh2, x2, fix[i, j, k, 2], vfix[i, j, k, 2], fgz, a_half, dt)
+    v[i, j, k, 0] = v0
+    v[i, j, k, 1] = v1
+    v[i, j, k, 2] = v2
+    reaction[i, j, k, 0] = r0
+    reaction[i, j, k, 1] = r1
+    reaction[i, j, k, 2] = r2
+    m0 = 0.5 * (o0 + v0)
+    m1 = 0.5 * (o1 + v1)
+    m2 = 0.5 * (o2 + v2)
+    mm = m0 * m0 + m1 * m1 + m2 * m2
+    e[0] += 0.5 * m * mm
+    e[1] -= (fs0 * m0 + fs1 * m1 + fs2 * m2) * dt
+    e[2] -= (fq0 * m0 + fq1 * m1 + fq2 * m2) * dt
+    e[2] += 2.0 * a_half / dt * m * mm * dt
+    e[3] -= (fh0 * m0 + fh1 * m1 + fh2 * m2) * dt
+    e[4] += fgz * m2 * dt
+    e[5] += ((x0 + r0) * m0 + (x1 + r1) * m1 + (x2 + r2) * m2) * dt
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
-def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gravity, dt, mtiny, work):
-    """v ← v + Δt f/m with stress, viscous, hourglass and gravity forces; boundary conditions.
+def advance_nodes(
+    hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt, mtiny, work
+):  # fmt: skip
+    """v ← v + Δt f/m with stress, viscous, hourglass, gravity and external forces ``fext`` (N); then the boundary
+    conditions: fixed components take the prescribed velocity ``vfix`` and their reaction m (v − v_free)/Δt goes
+    to ``reaction``. ``damping`` α (1/s) adds the mass-proportional force −α m v̄ (dynamic relaxation, for
+    quasi-static checks; 0 in a physical run), integrated implicitly and counted as viscous dissipation
+    (:func:`update_node`, the cylindrical layout's node update).
 
     The forces are those of :func:`gather_node_force`, in two passes: each cell's corner-independent
     factors (:func:`cell_force_factors`) once, into ``work`` ((nx, ny, nz, :data:`FORCE_FACTORS`), scratch),
@@ -237,7 +293,7 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
     Energy accounting consistent with the central-difference scheme: the work of every force fⁿ over the
     step uses the mean velocity v̄ = (v^{n−½} + v^{n+½})/2, and the kinetic energy is ½ m v̄².
     Returns (kinetic energy at n, work of the stresses = internal-energy increment, viscous and hourglass
-    dissipation, work of gravity)."""
+    dissipation, work of gravity, work of the external forces and reactions)."""
     nx, ny, nz = Vs.shape
     cf = work
     rx = 0.25 / hx
@@ -249,41 +305,23 @@ def advance_nodes(hx, hy, hz, active, Vs, mass, stress, q, hg, nmass, v, fix, gr
                 continue
             for ck in range(nz):
                 cell_force_factors(ci, cj, ck, rx, ry, rz, Vs, mass, stress, q, hg, cf[ci, cj, ck])
-    acc = np.empty((nx + 1, 5))  # (every row is written; np.zeros would be a parallel loop of its own)
+    acc = np.empty((nx + 1, 6))  # (every row is written; np.zeros would be a parallel loop of its own)
+    a_half = 0.5 * damping * dt
     for i in prange(nx + 1):
-        ke = 0.0
-        wi = 0.0
-        wv = 0.0
-        wh = 0.0
-        wg = 0.0
+        e = np.zeros(6)
         for j in range(ny + 1):
             for k in range(nz + 1):
                 m = nmass[i, j, k]
                 if m <= mtiny:
-                    v[i, j, k, 0] = 0.0
-                    v[i, j, k, 1] = 0.0
-                    v[i, j, k, 2] = 0.0
+                    for d in range(3):
+                        v[i, j, k, d] = vfix[i, j, k, d] if fix[i, j, k, d] else 0.0
                     continue
                 g = gather_node_force(i, j, k, active, cf, 0, 0, 0, nx, ny, nz)
-                vx, vy, vz, e0, e1, e2, e3, e4 = advance_node(
-                    m, g, v[i, j, k, 0], v[i, j, k, 1], v[i, j, k, 2], fix[i, j, k, 0], fix[i, j, k, 1],
-                    fix[i, j, k, 2], gravity, dt,
-                )  # fmt: skip
-                v[i, j, k, 0] = vx
-                v[i, j, k, 1] = vy
-                v[i, j, k, 2] = vz
-                ke += e0
-                wi += e1
-                wv += e2
-                wh += e3
-                wg += e4
-        acc[i, 0] = ke
-        acc[i, 1] = wi
-        acc[i, 2] = wv
-        acc[i, 3] = wh
-        acc[i, 4] = wg
+                update_node(i, j, k, m, g, v, fix, vfix, fext, reaction, gravity, a_half, dt, e)
+        for d in range(6):
+            acc[i, d] = e[d]
     t = column_sums(acc)
-    return t[0], t[1], t[2], t[3], t[4]
+    return t[0], t[1], t[2], t[3], t[4], t[5]
 
 
 #: unloading shear modulus per P-wave modulus, G/M = (1 − 2ν)/(2(1 − ν)) at ν = 0.2

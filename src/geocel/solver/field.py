@@ -323,8 +323,8 @@ class EulerianField:
         components and the displacement pending for the remap; the nodal pass's scratch (``force_factors`` per
         cell); the non-local factors with their per-axis ``weights`` (None: the local model, or a length that
         reaches no neighbouring cell); the reciprocal node spacings of the Courant number; each cell's ``L_e``
-        for Δt. ``ring`` (r–z, cylindrical): also the prescribed velocities, external forces and reactions of the
-        nodes, the remap's activity mask and scratch."""
+        for Δt; the nodes' external forces, prescribed velocities and reactions. ``ring`` (r–z, cylindrical): also
+        the remap's activity mask and scratch."""
         g = self.grid
         shape = tuple(g.shape)
         self.nstate = len(self.material.state_names)
@@ -351,10 +351,12 @@ class EulerianField:
         self.nonlocal_factor = np.ones(shape)
         self._nonlocal_weights = weights if (weights is not None and reaches_a_neighbour(weights)) else None
         self._nonlocal_scratch = tuple(np.zeros(shape) for _ in range(6)) if self._nonlocal_weights else ()
+        #: the nodes' external forces (N; per radian in r–z), the prescribed velocities of their fixed components
+        #: (m/s; zero: walls, symmetry planes, axis, base) and those components' reactions (N)
+        self.prescribed = np.zeros(node_shape)
+        self.external_force = np.zeros(node_shape)
+        self.reaction = np.zeros(node_shape)
         if ring:
-            self.prescribed = np.zeros(node_shape)
-            self.external_force = np.zeros(node_shape)
-            self.reaction = np.zeros(node_shape)
             #: the cells that take part in the remap (the pile's cells in its frame do not)
             self.active = np.ones(shape, dtype=np.bool_)
             self._remap_work: dict = {}  # the remap's buffers
@@ -648,10 +650,19 @@ class EulerianField:
 
 @dataclass
 class SoilField(EulerianField):
+    """Soil on a Cartesian :class:`~geocel.grid.Grid` (tensor product; a level of nested columns).
+
+    ``damping`` α (1/s): mass-proportional damping −α m v for quasi-static checks (dynamic relaxation), 0 in a
+    physical run. ``external_force`` (N per node, (x, y, z)) is applied every step; nodes with ``fix`` set take the
+    velocity ``prescribed`` (m/s; zero by default: walls, symmetry planes, base) and their reaction is in
+    ``reaction`` (N), as in the r–z and cylindrical fields. (Nested columns join their levels' interface nodes
+    without them: a composite has no damping or external forces.)"""
+
     grid: Grid
     material: Material
     scaling: float = 1.0
     settings: SolverSettings = field(default_factory=SolverSettings)
+    damping: float = 0.0
 
     def __post_init__(self) -> None:
         g = self.grid
@@ -672,26 +683,14 @@ class SoilField(EulerianField):
 
     # --- the phases of the step (a composite of levels calls them level by level) -------------------------------
     def nodal_pass(self, dt: float, phase: int = 0) -> tuple[float, ...]:
-        """v ← v + Δt f/m at every node (:func:`advance_nodes`); returns its energy sums (kinetic, stress
-        work, viscous, hourglass, gravity work, external work: none on this grid)."""
-        return *advance_nodes(
-            self.hx,
-            self.hy,
-            self.hz,
-            self.active2d,
-            self.Vs,
-            self.mass,
-            self.stress,
-            self.q,
-            self.hg,
-            self.nmass,
-            self.v,
-            self.fix,
-            self.gravity,
-            dt,
-            self.mass_tiny,
-            self._force_factors,
-        ), 0.0
+        """v ← v + Δt f/m at every node (:func:`advance_nodes`, with the external forces, the prescribed velocities
+        of the fixed components and ``damping``); returns its energy sums (kinetic, stress work, viscous,
+        hourglass, gravity work, external work)."""
+        return advance_nodes(
+            self.hx, self.hy, self.hz, self.active2d, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass,
+            self.v, self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
+            self.mass_tiny, self._force_factors,
+        )  # fmt: skip
 
     def release_own_nonlocal_mean(self) -> None:
         """Free the per-axis weights and scratch of this field's own non-local mean: a caller that sets
