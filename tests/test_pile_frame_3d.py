@@ -1,6 +1,6 @@
 """The 3D model in the pile's frame (``[domain] frame = "pile"`` with a quarter, half or full model): the grid,
 tensor-product or nested, moves down with the pile's base and soil flows in through the bottom of every level
-(geocel.solver.field.FieldBalances.move_with, geocel.contact.coupling.ContactCoupling.follow_pile).
+(geocel.solver.field.EulerianField.move_with, geocel.contact.coupling.ContactCoupling.follow_pile).
 
 Checks against independent results: a soil column that the grid slides through stays at rest in the laboratory
 with its geostatic stress (an invariance: the frame must not move the soil); the soil that flows in is exactly the
