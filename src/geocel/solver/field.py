@@ -39,9 +39,6 @@ Material = Elastic | MohrCoulomb | Tresca | Hypoplastic
 #: band of void ratios that bounds the soil density of a cell in the remap (dust cells near the surface)
 E_MIN, E_MAX = 0.1, 3.0
 
-#: components of the hourglass control kept after the material state: the generalised hourglass stresses
-#: (4 modes × 3 directions, per unit soil volume, Pa) and the tangent shear modulus G_t (Pa) that drives them
-HOURGLASS_STATE = 12
 ENERGY_KEYS = (
     "kinetic",
     "internal",
