@@ -101,7 +101,6 @@ def preset_dict(
     if layout in ("tensor", "nested"):
         dom["layout"] = layout
         dom["frame"] = "laboratory"
-        dom["void_height"] = 1.0
         d["name"] = f"{d['name']}-{layout}"
         resolutions = CARTESIAN_RESOLUTIONS
     if penetration is not None:
@@ -116,11 +115,11 @@ def preset_dict(
         if resolution not in resolutions:
             raise ValueError(f"unknown resolution {resolution!r}; available: {', '.join(resolutions)}")
         dom.update(resolutions[resolution])
-    if dom["frame"] == "laboratory" and resolution is not None and "fine_depth" not in resolutions[resolution]:
-        # (capped at the soil depth: a penetration too deep is then reported as such, not as fine_depth)
-        dom["fine_depth"] = min(d["loading"]["penetration"] + 2.0, dom["soil_depth"])
-    elif dom["frame"] == "laboratory" and resolution is None:
-        dom["fine_depth"] = 12.0
+    if dom["frame"] == "laboratory" and "fine_depth" not in resolutions.get(resolution, {}):
+        # the fine zone reaches 2 m below the final tip (capped at the soil depth: a penetration too deep is then
+        # reported as such, not as fine_depth); the paper's 12 m without a resolution
+        pen = d["loading"]["penetration"]
+        dom["fine_depth"] = 12.0 if resolution is None else min(pen + 2.0, dom["soil_depth"])
     return d
 
 
