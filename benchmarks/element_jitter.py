@@ -1,5 +1,5 @@
-"""How the hypoplastic sand responds to strain jitter: one material point, no grid (docs/validation.md, "The
-hypoplastic sand in r–z").
+"""How the hypoplastic sand responds to strain jitter: one material point, no grid
+(docs/studies/2026-11-25-pile-frame.md).
 
 The ``deeks-white`` preset's sand (Fraction E), dense (e = 0.58), from σ = (−25, −25, −50) kPa, strained
 along a fixed compressive direction D₀ ∝ (0.25, 0.25, −1) in increments of 10⁻⁴ (= R) to 20 %. On every

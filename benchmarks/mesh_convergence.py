@@ -12,7 +12,8 @@ Both modes use the same problem: the ``deeks-white`` preset's sand (Fraction E, 
 μ = tan(2/3 φ_c)), a D = 0.6 m pile with a flat base jacked from the surface, MGS factor S (default 10),
 0.5 m/s, in a container of radius 4 m and depth 6 m (``--container``; the same container in 3D and r–z makes
 them comparable, and a grid study compares like with like, but it is too small for absolute values: in r–z
-at 6 cells per radius a 12 m radius moves q_b by 17 % and q_s by 35 % MPE, docs/validation.md).
+at 6 cells per radius a 12 m radius moves q_b by 17 % and q_s by 35 % MPE,
+docs/studies/2026-11-25-container-size.md).
 ``--cells-per-radius n``: fine cells of a/n (a = 0.3 m) around the pile; 3D quarter model (3D accepts
 fractions: 1.5 is the `demo` preset's 0.2 m cells) or axisymmetric (integer n; the rigid pile through
 ``benchmarks/axisymmetric_jacking.py``, with ``--rim`` the r–z contact's treatment of the node under the
@@ -299,7 +300,8 @@ def report(results: list[dict], out: Path) -> None:
     print(
         f"\nMPE against the next finer resolution over the depths ≥ 2 coarse cells (q_b) and ≥ 0.5 m (q_s), of the "
         f"curves and of their running means over {SMOOTH / 10:g} m (the dense sand's shear bands make q_b jump at "
-        "depths that a round-off perturbation shifts: docs/validation.md, 'The noise floor'); to "
+        "depths that a round-off perturbation shifts without the bounding surface: "
+        "docs/studies/2026-11-26-bounding-surface.md); to "
         f"{at[-1]:.1f} m\nresolution            cells    steps   wall (s)   q_b     q_s   q_b mean  q_s mean"
     )
     last = (float("nan"),) * 4

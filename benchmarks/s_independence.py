@@ -3,12 +3,14 @@
     NUMBA_NUM_THREADS=1 python benchmarks/s_independence.py [--velocity 0.05] [--members 1] [--jobs 2]
         [--cells-per-radius 3] [--penetration 1.0] [--scaling 1 10]
 
-Measured (docs/validation.md, "S-independence"): at 3 cells per radius and 0.05 m/s, S = 10 against S = 1 is
-0.6 % (q_b) and 1.0 % (q_s), against 4.2 % / 6.1 % for the same pair at 0.5 m/s, where the soil's inertia shows.
+Measured (docs/validation.md, "S-independence at a quasi-static speed"): at 3 cells per radius and 0.05 m/s,
+S = 10 against S = 1 is 0.6 % (q_b) and 1.0 % (q_s), against 4.2 % / 6.1 % for the same pair at 0.5 m/s, where
+the soil's inertia shows.
 
 Without the bounding surface (``bounding_surface = false``) the dense sand's shear bands amplify perturbations of
 round-off size: two runs of the same motion part by a few per cent in q_b after a few hundred thousand steps
-(docs/validation.md, "The noise floor"); the bounded sand has a noise floor of 0.00 %, so one run per S suffices.
+(docs/studies/2026-11-26-bounding-surface.md); the bounded sand has a noise floor of 0.00 %, so one run per S
+suffices.
 For the former, run an ensemble per S: ``--members`` runs at the speed × (1 + k·10⁻⁶), k = 0, 1, …, each the
 rigid pile of ``axisymmetric_jacking.py`` (the pile's frame, split corner, l = 0.1 m, 4 m container).
 It prints, for each S, the ensemble's mean q_b(z) and q_s(z) and its spread (the mean MPE of the members against

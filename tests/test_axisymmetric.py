@@ -21,7 +21,14 @@ from geocel.materials.kernels import model_tag
 from geocel.solver.axisym_field import AxisymmetricField
 from geocel.solver.field import SolverSettings
 from geocel.verification import SHIELD_SMOOTH
-from geocel.verification_axisym import elastic_punch_stiffness, tresca_punch_curve
+from geocel.verification import closed_form as cf
+from geocel.verification.axisym import (
+    collapse_field,
+    elastic_punch_stiffness,
+    mean_radius,
+    thick_cylinder,
+    tresca_punch_curve,
+)
 
 G = 9.81
 
@@ -267,59 +274,24 @@ def test_elastic_p_wave_speed():
 def test_thick_walled_cylinder_under_internal_pressure_matches_lame():
     """Plane strain (v_z = 0 at the bottom and top), inner radius a = 1 m under the pressure p, outer radius
     b = 2 m free, quasi-static by dynamic relaxation: u_r(a) = (1+ν)/E · A [(1−2ν) a + b²/a] and
-    σ_θθ = A (1 + b²/r²), A = p a²/(b² − a²) (Lamé), within 2 %."""
-    E, nu, p = 20e6, 0.3, 100e3
-    a, b, h = 1.0, 2.0, 0.1
-    g = AxisymmetricGrid(h * np.arange(int(round(b / h)) + 1), np.array([0.0, h, 2 * h]))
-    f = AxisymmetricField(g, Elastic(youngs_modulus=E, poisson_ratio=nu), damping=170.0,
-                          settings=SolverSettings(gravity=0.0, remap_courant=np.inf))  # fmt: skip
-    f.Vs[g.rc > a] = f.volume[g.rc > a]
-    f.geostatic([(0.0, 0.65)], k0=1.0)
-    f.fix[...] = 0
-    f.fix[0, :, 0] = 1
-    f.fix[:, 0, 1] = f.fix[:, -1, 1] = 1
-    ia = int(round(a / h))
-    share = np.r_[0.5 * h, np.full(g.nz - 1, h), 0.5 * h]
-    u_a = 0.0
-    while f.time < 0.3:
-        f.external_force[ia, :, 0] = min(f.time / 0.05, 1.0) * p * a * share  # per radian: p r h_z
-        dt = f.dt
-        f.step()
-        u_a += f.v[ia, 1, 0] * dt
-    assert f.energy["kinetic"] < 1e-8 * f.energy["internal"]  # at rest
-    A = p * a * a / (b * b - a * a)
-    assert u_a == pytest.approx((1 + nu) / E * A * ((1 - 2 * nu) * a + b * b / a), rel=0.02)
-    rc = g.rc[g.rc > a]
-    st = f.stress[g.rc > a, 0]
-    np.testing.assert_allclose(st[:, 1], A * (1 + b * b / rc**2), rtol=0.02)
-    np.testing.assert_allclose(st[:, 0], A * (1 - b * b / rc**2), atol=0.02 * p)
+    σ_θθ = A (1 + b²/r²), A = p a²/(b² − a²) (Lamé), within 2 % (`geocel verify` runs the same)."""
+    E, nu, p, a, b = 20e6, 0.3, 100e3, 1.0, 2.0
+    r = thick_cylinder(Elastic(youngs_modulus=E, poisson_ratio=nu), p, a=a, b=b, h=0.1, damping=170.0, ramp=0.05,
+                       duration=0.3)  # fmt: skip
+    assert r["kinetic_over_internal"] < 1e-8  # at rest
+    assert r["u_a"] == pytest.approx(cf.lame_inner_displacement(p, a, b, E, nu), rel=0.02)
+    s_rr, s_tt = cf.lame(r["r"], p, a, b)
+    st = r["stress"]
+    np.testing.assert_allclose(st[:, 1], s_tt, rtol=0.02)
+    np.testing.assert_allclose(st[:, 0], s_rr, atol=0.02 * p)
     np.testing.assert_allclose(st[:, 2], nu * (st[:, 0] + st[:, 1]), rtol=1e-6)  # plane strain
 
 
-def _pressurised_cylinder(material, p_inner, p_outer=0.0, a=1.0, b=2.0, h=0.05):
-    """The thick cylinder a ≤ r ≤ b of the Lamé test in plane strain (v_z = 0 at the bottom and top), small
-    strain (remap off), from the isotropic stress −``p_outer``: the outer pressure held, the inner one raised
-    from ``p_outer`` to ``p_inner`` over 0.2 s and held, quasi-static by dynamic relaxation. Returns the cell
-    centres' radii and stresses."""
-    g = AxisymmetricGrid(h * np.arange(int(round(b / h)) + 1), np.array([0.0, h, 2 * h]))
-    settings = SolverSettings(gravity=0.0, remap_courant=np.inf)
-    f = AxisymmetricField(g, material, damping=120.0, settings=settings)
-    soil = g.rc > a
-    f.Vs[soil] = f.volume[soil]
-    f.geostatic([(0.0, 0.65)], k0=1.0)  # (weightless: the masses, e; no stress)
-    f.stress[soil, :, :3] = -p_outer
-    f.fix[...] = 0
-    f.fix[0, :, 0] = 1
-    f.fix[:, 0, 1] = f.fix[:, -1, 1] = 1
-    ia = int(round(a / h))
-    share = np.r_[0.5 * h, np.full(g.nz - 1, h), 0.5 * h]
-    while f.time < 0.6:
-        p = p_outer + min(f.time / 0.2, 1.0) * (p_inner - p_outer)
-        f.external_force[ia, :, 0] = p * a * share  # per radian: p r h_z
-        f.external_force[-1, :, 0] = -p_outer * b * share
-        f.step()
-    assert f.energy["kinetic"] < 1e-8 * f.energy["internal"]  # at rest
-    return g.rc[soil], f.stress[soil, 0]
+def _pressurised_cylinder(material, p_inner, p_outer=0.0):
+    """The thick cylinder of the Lamé test (cells of 0.05 m) from the isotropic −``p_outer``, at rest at the end."""
+    r = thick_cylinder(material, p_inner, p_outer)
+    assert r["kinetic_over_internal"] < 1e-8  # at rest
+    return r["r"], r["stress"]
 
 
 def test_thick_walled_cylinder_yielding_under_internal_pressure_matches_hill():
@@ -328,13 +300,10 @@ def test_thick_walled_cylinder_yielding_under_internal_pressure_matches_hill():
     σ_rr = −k (1 − c²/b²) − 2k ln(c/r), σ_θθ = σ_rr + 2k for r ≤ c, and Lamé with σ_θθ − σ_rr = 2k c²/r²
     outside, within 1 % of p (measured 0.05 %)."""
     k, a, b, c = 50e3, 1.0, 2.0, 1.5
-    p = k * (1 - c * c / (b * b)) + 2 * k * np.log(c / a)
+    p = cf.hill_pressure(k, a, b, c)
     r, st = _pressurised_cylinder(Tresca(youngs_modulus=20e6, poisson_ratio=0.45, undrained_strength=k), p)
     plastic = r < c
-    inside = -k * (1 - c * c / (b * b)) - 2 * k * np.log(c / r)
-    outside = -k * c * c / (b * b) * (b * b / r**2 - 1)
-    s_rr = np.where(plastic, inside, outside)
-    s_tt = np.where(plastic, s_rr + 2 * k, k * c * c / (b * b) * (b * b / r**2 + 1))
+    s_rr, s_tt = cf.hill(r, k, b, c)
     np.testing.assert_allclose(st[:, 0], s_rr, atol=0.01 * p)
     np.testing.assert_allclose(st[:, 1], s_tt, atol=0.01 * p)
     assert np.all((st[:, 0] < st[:, 2]) & (st[:, 2] < st[:, 1]))  # σ_zz intermediate: Hill's assumption holds
@@ -462,29 +431,14 @@ def test_remap_of_an_incompressible_radial_flow_keeps_soil_volume_and_density():
     assert m2 - m20 == pytest.approx(2 * C * V0 * n * dt, rel=0.02)
 
 
-def _collapse_field(S=1.0):
-    """A Mohr–Coulomb soil cylinder (r 0.5 m, h 1 m) standing free in a 1.2 m container, remapped every step."""
-    g = AxisymmetricGrid(0.1 * np.arange(13), np.concatenate([np.linspace(-1.0, 0.0, 11), [0.1, 0.2]]))
-    f = AxisymmetricField(g, MohrCoulomb(youngs_modulus=5e6, poisson_ratio=0.3, friction_angle=30.0), scaling=S,
-                          settings=SolverSettings(remap_courant=0.0))  # fmt: skip
-    f.fill_below(0.0)
-    f.Vs[g.rc > 0.5] = 0.0
-    f.geostatic([(0.0, 0.65)], k0=0.5)
-    return f
-
-
-def _mean_radius(f):
-    return (f.mass.sum(axis=1) * f.grid.rc).sum() / f.mass.sum()
-
-
 def test_collapsing_cylinder_conserves_mass_through_the_remap():
     """It collapses under gravity and spreads; its mass is conserved to round-off and the energy balances
     within 2 %."""
-    f = _collapse_field()
-    r0 = _mean_radius(f)
+    f = collapse_field()
+    r0 = mean_radius(f)
     for _ in range(400):
         f.step()
-    assert _mean_radius(f) - r0 > 0.01  # it spread
+    assert mean_radius(f) - r0 > 0.01  # it spread
     assert abs(f.mass_error()) < 1e-12
     assert abs(f.energy_balance_error()) < 0.02 * f.energy["external_work"]
 
@@ -492,13 +446,13 @@ def test_collapsing_cylinder_conserves_mass_through_the_remap():
 def test_mgs_collapse_reproduces_the_motion_on_a_stretched_time_axis():
     """MGS S = 100 (density × S, gravity ÷ S) with Δt × 10: the same motion on a time axis stretched by 10,
     to round-off (the hourglass control, the bulk viscosity and the remap are S-invariant)."""
-    f1, f100 = _collapse_field(1.0), _collapse_field(100.0)
-    r0 = _mean_radius(f1)
+    f1, f100 = collapse_field(1.0), collapse_field(100.0)
+    r0 = mean_radius(f1)
     dt1 = 0.8 * f1.dt
     for _ in range(300):
         f1.step(dt=dt1)
         f100.step(dt=10.0 * dt1)
-    d1, d100 = _mean_radius(f1) - r0, _mean_radius(f100) - r0
+    d1, d100 = mean_radius(f1) - r0, mean_radius(f100) - r0
     assert d1 > 0.005
     assert d100 == pytest.approx(d1, rel=1e-6)
     np.testing.assert_allclose(f100.stress, f1.stress, rtol=1e-6, atol=1e-6 * np.abs(f1.stress).max())

@@ -434,7 +434,7 @@ def test_subcycled_solid_pile_follows_the_rigid_pile_when_the_soil_outweighs_it(
      ("axisymmetric", None, 3.0, False)],
 )  # fmt: skip
 def test_a_3d_pile_run_below_the_converged_depth_gets_a_note(tmp_path, symmetry, layout, penetration, noted):
-    # docs/validation.md, "To 9 m": the Cartesian grids' q_b diverges from the converged r–z one below about 2 m;
+    # docs/validation.md, "The Cartesian grids: q_b does not converge at depth": the Cartesian grids' q_b diverges from the converged r–z one below about 2 m;
     # the default (cylindrical) layout and r–z converge
     from geocel.benchmark.presets import preset_dict
     from geocel.config.scenario import scenario_from_dict

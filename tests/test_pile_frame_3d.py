@@ -126,8 +126,7 @@ def test_a_deferred_remap_carries_a_geostatic_column_but_jolts_its_ends():
     refilled bottom row too. The two cells whose faces differ in order — second order on one side, first order
     on the other: the cell above the open bottom and the top full cell below the free surface — are shifted by
     c(1 − c)/2 of the stress step between cells (c the remap's Courant number; within 5 %). A deferred remap
-    makes these shifts at once: a jolt that shakes the soil (docs/validation.md, "Where a deferred remap jolts
-    the soil")."""
+    makes these shifts at once: a jolt that shakes the soil (docs/studies/2026-11-28-deferred-remap-pile-frame.md)."""
     settings = SolverSettings(remap_courant=0.02)
     g = Grid.graded(2.0, 2.4, 0.8, 0.2, 0.8, 2.4, growth=1.3, max_size=0.5)
     f = SoilField(g, SAND, 10.0, settings)

@@ -51,7 +51,8 @@ AXISYMMETRIC_RESOLUTIONS = {
 SYMMETRIES = ("quarter", "half", "full", "axisymmetric")
 LAYOUTS = typing.get_args(typing.get_args(Domain.model_fields["layout"].annotation)[0])  # (Literal[...] | None)
 #: what ``geocel preset deeks-white --symmetry axisymmetric`` changes besides the model and the grid: MGS S = 10 at
-#: a speed the r–z inertia check calls valid (docs/validation.md), and a penetration that takes minutes
+#: a speed the r–z inertia check calls valid (docs/validation.md, "S-independence at a quasi-static speed"), and a
+#: penetration that takes minutes
 AXISYMMETRIC_QUICK = {"velocity": 0.05, "mass_gravity": 10.0, "penetration": 1.0}
 
 

@@ -607,7 +607,7 @@ class Scenario(_Table):
         if self.domain.frame == "pile" and "remap_courant" not in self.solver.model_fields_set:
             # the whole soil flows through a grid that moves with the pile: a deferred remap's disturbance (a
             # fixed one per remap_courant of a cell, whatever the speed) then shakes all of it, and slow jacking
-            # loses q_b (docs/validation.md, "r–z in the pile's frame"): remap after every step
+            # loses q_b (docs/studies/2026-11-28-deferred-remap-pile-frame.md): remap after every step
             self.solver.remap_courant = 0.0
         if (
             self.domain.frame == "pile"

@@ -7,7 +7,7 @@ ring, the axis r = 0) turned through the model's angle (a quarter, a half: the s
 V = r_c h_r Δθ h_z (m³, not per radian: everything extensive in the cylindrical field is for the modelled
 sector of the body). Why this layout: the pile's shaft is a node ring and its base a node row, as in r–z, so
 the r–z model's treatment of the base's rim carries over to 3D, which a Cartesian grid whose cells the circle
-cuts cannot give (docs/validation.md, "The 3D model in the pile's frame").
+cuts cannot give (docs/studies/2026-11-27-cylindrical-layout.md).
 
 **Fewer sectors towards the axis** (``ties``): the arc r_c Δθ of the rings next to the axis would set the
 stable Δt. Ring i's cells may be tied in groups of m_i consecutive sectors (m_i a power of two dividing nθ,

@@ -3,14 +3,14 @@ line, the benchmark, sweeps and the plots.
 
 * max(kinetic / internal energy) over the run against the usual limits, 5 % (valid) and 10 % (invalid)
   (DESIGN.md §3). It is a global measure and does not catch inertia that spoils q_b: S = 100 runs with
-  30–45 % error in q_b stay below 3 % (docs/validation.md).
+  30–45 % error in q_b stay below 3 % (the 3D Deeks & White benchmark, docs/validation.md).
 * the **inertia ratio** ρ_S v² / q_b: the inertial stress of soil set moving at the pile's speed v
   (ρ_S = S × the soil's density: what inertia sees under mass scaling) against the base resistance it
   acts on, max over tip depths ≥ one diameter. Mass scaling and speed enter as S v², as they do in the
   soil's equation of motion, and the resistance the result is about is in the denominator. Limits
   calibrated on the demo's coupled pile (1.5 cells per pile radius, 1 m) at S v² = 0.0025–2.5 m²/s² against
-  the slowest run (S = 1, 0.05 m/s; docs/validation.md, "The quasi-static q_b to 3 m, the demo against it, and the
-  inertia limits in 3D"): ≤ 0.007 % valid (as in
+  the slowest run (S = 1, 0.05 m/s; docs/validation.md, "The quasi-static q_b to 3 m and the inertia limits in
+  3D"): ≤ 0.007 % valid (as in
   r–z; the run at 0.0028 % is 8 % from the slowest, the scatter of this coarse grid), ≤ 0.5 % caution (the runs
   at 0.033 % and 0.33 %, S = 1 and 10 at 0.5 m/s, are 15 % off), above invalid (the earlier calibration against
   S = 1 at 0.5 m/s put runs above 1 % another 14–45 % off). The first 3D calibration took S = 1 at 0.5 m/s

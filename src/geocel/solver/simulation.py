@@ -55,8 +55,9 @@ from .writers import (  # noqa: F401  (HISTORY_*, history_preamble: re-exported,
 #: version of the checkpoint metadata (2: with the scenario, status, phase times and governing element; 3: with
 #: the state of every callback, ``callbacks``, and the step they last ran for, ``outputs_step``)
 CHECKPOINT_FORMAT = 3
-#: tip depth (m) below which the Cartesian grids' q_b was found not grid-converged (docs/validation.md, "To 9 m":
-#: within 5 % of r–z to about 2 m at 3 cells per pile radius, then diverging); a pile run on them deeper gets a note
+#: tip depth (m) below which the Cartesian grids' q_b was found not grid-converged (docs/validation.md, "The
+#: Cartesian grids": within 5 % of r–z to about 2 m at 3 cells per pile radius, then diverging); a pile run on them
+#: deeper gets a note
 UNCONVERGED_3D_DEPTH = 2.0
 #: fine cells per internal length below which the non-local sand is as mesh-dependent as the local one
 #: (docs/numerics.md, "Which l": q_b moved 7.4 % from one to two cells per l, 2.7 % from two to four); a run gets a note
@@ -147,8 +148,8 @@ class Simulation:
                 self.notes.append(
                     f"the tip goes to {tip:g} m: on a Cartesian grid (layout = \"{scenario.domain.layout}\") q_b "
                     f"below about {UNCONVERGED_3D_DEPTH:g} m is not grid-converged at the cells affordable on a "
-                    'workstation (docs/validation.md, "To 9 m"); the cylindrical layout (the default for a '
-                    "flat-based pile in a quarter or half model) and the r–z model converge"
+                    'workstation (docs/validation.md, "The Cartesian grids"); the cylindrical layout (the default '
+                    "for a flat-based pile in a quarter or half model) and the r–z model converge"
                 )
         length = getattr(scenario.soil.material, "nonlocal_length", 0.0)
         if 0.0 < length < MIN_CELLS_PER_LENGTH * scenario.domain.fine_size:
@@ -161,7 +162,7 @@ class Simulation:
             self.notes.append(
                 "the 3D pile's frame is experimental: its base's rim is not split as in r–z, and its q_b reaches "
                 "the r–z model's from below only at fine cells (MPE over 0.3–1 m 67 / 16 / 22 / 8 % at 2 / 3 / 4 / 6 "
-                'cells per pile radius; docs/validation.md, "The 3D model in the pile\'s frame")'
+                "cells per pile radius; docs/studies/2026-11-27-cylindrical-layout.md)"
             )
         #: the scenario keys that differed from the checkpoint's on a restart (allowed ones)
         self.restarts: list[dict] = []

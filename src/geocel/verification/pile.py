@@ -14,15 +14,16 @@ import time
 
 import numpy as np
 
-from .bodies.geometry import PileGeometry
-from .bodies.pile import ContactLoad, RigidPile, Surface, head_displacement, head_velocity
-from .config.materials import Elastic, MohrCoulomb, Tresca
-from .contact.coupling import ContactCoupling
-from .grid import Grid
-from .solver.field import SoilField, SolverSettings
+from ..bodies.geometry import PileGeometry
+from ..bodies.pile import ContactLoad, RigidPile, Surface, head_displacement, head_velocity
+from ..config.materials import Elastic, MohrCoulomb, Tresca
+from ..contact.coupling import ContactCoupling
+from ..grid import Grid
+from ..solver.field import SoilField, SolverSettings
+from .closed_form import SHIELD_SMOOTH
 
-#: Shield (1955): limit pressure of a smooth rigid circular punch on a Tresca half-space, q/c_u
-SHIELD_SMOOTH = 5.69
+__all__ = ["SHIELD_SMOOTH", "limit_over", "punch_curve", "punch_in_scenario", "wished_in_place"]
+
 
 
 def punch_curve(
@@ -98,8 +99,8 @@ def punch_in_scenario(
     of), ``mean``: the mean over 4–8 % D, and the run's summary."""
     import tempfile
 
-    from .config.scenario import scenario_from_dict
-    from .solver.simulation import Simulation
+    from ..config.scenario import scenario_from_dict
+    from ..solver.simulation import Simulation
 
     a = radius
     h = a / cells_per_radius
