@@ -326,13 +326,17 @@ def verify(
             on_done=lambda c, o: bar.advance(task),
         )
     seconds = time.perf_counter() - t0
-    table = Table(title=f"geocel {__version__} verify")
-    for col in ("check", "quantity", "reference", "computed", "error", "tolerance", "pass"):
-        table.add_column(col, justify="right" if col in ("error", "tolerance") else "left")
+    table = Table(title=f"geocel {__version__} verify", show_lines=False)
+    for col in ("check and quantity", "reference", "computed", "error ≤ tolerance", ""):
+        table.add_column(col, overflow="fold")
+    group = None
     for o in report.outcomes:
+        if o.check != group:
+            group = o.check
+            table.add_row(f"[bold]{escape(o.check)}[/bold]", "", "", "", "")
         mark = "[green]pass[/green]" if o.passed else "[red]FAIL[/red]"
-        table.add_row(o.check, o.quantity, o.reference, o.computed, f"{o.error:.2g}", f"{o.tolerance:.2g} {o.measure}",
-                      mark)  # fmt: skip
+        table.add_row(f"  {escape(o.quantity)}", escape(o.reference), escape(o.computed),
+                      f"{o.error:.1e} ≤ {o.tolerance:.0e} ({o.measure})", mark)  # fmt: skip
     console.print(table)
     for name, why in report.failed_to_run.items():
         console.print(f"[red]did not run:[/red] {name}: {escape(why)}", soft_wrap=True)
