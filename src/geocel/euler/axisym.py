@@ -47,10 +47,8 @@ from ..materials.tensor import KERNEL_OPTIONS
 from .lagrange import (
     G_FROM_M,
     PHI_MIN,
-    bulk_viscosity,
+    cell_response,
     column_sums,
-    critical_step,
-    material_update,
     mode_limit,
     strength_reserve,
 )
@@ -504,16 +502,15 @@ def _update_rows_rz(
                 flags[i, k] = 0
                 continue
             L, qh = split_gradient_rz(v, i, k, h_r, h_z, r_c, split)
-            D = (L[0] * dt, L[4] * dt, L[3] * dt, 0.0, 0.5 * (L[1] + L[2]) * dt, 0.0)
-            W = (0.0, 0.5 * (L[1] - L[2]) * dt, 0.0)
-            M, f = material_update(tag, prm, s2, st2, c, D, W, max_sub, nlf[i, k] if nonlocal_ else 1.0, dbuf, wbuf)
+            # (r, θ, z) with the hoop rate v_r/r and no θ-dependence: the 9-tuple of the cell's frame
+            L9 = (L[0], 0.0, L[1], 0.0, L[4], 0.0, L[2], 0.0, L[3])
+            le = characteristic_length_rz(h_r, h_z)
+            nl = nlf[i, k] if nonlocal_ else 1.0
+            M, f, rho, cd, q[i, k], dtc = cell_response(
+                tag, prm, s2, st2, c, L9, dt, max_sub, nl, dbuf, wbuf, mass[i, k], vs, le, b1, b2
+            )
             flags[i, k] = f
             modulus[i, k] = M
-            rho = mass[i, k] / vs
-            cd = np.sqrt(M / rho)
-            le = characteristic_length_rz(h_r, h_z)
-            tr = L[0] + L[3] + L[4]
-            q[i, k] = bulk_viscosity(b1, b2, rho, cd, le, tr)
             # hourglass: K_d/V = 4G/h_d², Q̇_d = K_d q_d/16, per unit volume; bounded at the sub-points
             gt = G_FROM_M * M
             chg = kappa * cd / (4.0 * np.sqrt(area))
@@ -527,8 +524,6 @@ def _update_rows_rz(
                 sq = min(max(sq, -lim), lim)
                 st2[c, hoff + d] = sq
                 hg[i, k, d] = chg * qh[d] + sq / rho
-            vmax = np.sqrt(L[0] ** 2 + L[3] ** 2 + L[4] ** 2) * le
-            dtc = critical_step(le, cd, b1, b2, tr, vmax)
             cell_dt[i, k] = dtc
             if dtc < best:
                 best = dtc

@@ -45,14 +45,11 @@ from ..materials.tensor import KERNEL_OPTIONS
 from .lagrange import (
     G_FROM_M,
     PHI_MIN,
-    bulk_viscosity,
+    cell_response,
     characteristic_length,
     clear_void_cell,
     column_sums,
-    critical_step,
     hourglass_modes,
-    increments,
-    material_update,
     update_node,
 )
 from .nonlocal_mean import axis_weights, factor_from_mean, nonlocal_mean
@@ -418,15 +415,11 @@ def _update_column(
                 flags[i, s, k] = 0
             continue
         L, qh = velocity_gradient_cyl(v, i, j, k, h_r, r_c, dth * mt, h_z, si, sk, zi, rb, mt)
-        D, W = increments(L, dt)
-        M, f = material_update(tag, prm, s2, st2, c, D, W, max_sub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
+        le = characteristic_length(h_r, h_t if i > 0 else 2.0 * h_t, h_z)  # (the axis ring: its outer arc)
+        nl = nlf[i, j, k] if nonlocal_ else 1.0
+        M, f, rho, cd, qn, dtc = cell_response(tag, prm, s2, st2, c, L, dt, max_sub, nl, dbuf, wbuf, mc, vs, le, b1, b2)
         flags[i, j, k] = f
         modulus[i, j, k] = M
-        rho = mc / vs
-        cd = np.sqrt(M / rho)
-        le = characteristic_length(h_r, h_t if i > 0 else 2.0 * h_t, h_z)  # (the axis ring: its outer arc)
-        tr = L[0] + L[4] + L[8]
-        qn = bulk_viscosity(b1, b2, rho, cd, le, tr)
         q[i, j, k] = qn
         gt = G_FROM_M * M
         chg = kappa * cd / (16.0 * np.sqrt(h_r * h_z))  # r–z's viscous part (module docstring)
@@ -443,8 +436,6 @@ def _update_column(
             q[i, s, k] = qn
             modulus[i, s, k] = M
             flags[i, s, k] = f
-        vmax = np.sqrt(L[0] ** 2 + L[4] ** 2 + L[8] ** 2) * le
-        dtc = critical_step(le, cd, b1, b2, tr, vmax)
         if dtc < best:
             best = dtc
             best_c = c

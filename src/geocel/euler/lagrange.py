@@ -499,6 +499,23 @@ def material_update(tag, prm, s2, st2, c, D, W, max_sub, nl, dbuf, wbuf):
     return M, f
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def cell_response(tag, prm, s2, st2, c, L, dt, max_sub, nl, dbuf, wbuf, mass, vs, le, b1, b2):
+    """The soil's response in one cell, the same in every geometry: the strain and spin increments of the velocity
+    gradient ``L`` (9-tuple, row-major, in the cell's orthonormal frame) over Δt, the soil model's update of cell
+    ``c`` (non-local factor ``nl``), the density and P-wave speed, the bulk-viscosity pressure and the cell's
+    stable step for the length ``le``. Returns (M, flags, ρ, c_d, q, Δt_c); the geometry adds its hourglass modes."""
+    D, W = increments(L, dt)
+    M, f = material_update(tag, prm, s2, st2, c, D, W, max_sub, nl, dbuf, wbuf)
+    rho = mass / vs
+    cd = np.sqrt(M / rho)
+    tr = L[0] + L[4] + L[8]
+    qn = bulk_viscosity(b1, b2, rho, cd, le, tr)
+    # the stable step, with the viscosity's correction of the explicit scheme and the soil's own speed
+    vmax = np.sqrt(L[0] ** 2 + L[4] ** 2 + L[8] ** 2) * le
+    return M, f, rho, cd, qn, critical_step(le, cd, b1, b2, tr, vmax)
+
+
 @njit(**KERNEL_OPTIONS)
 def _update_slabs(
     tag, prm, hx, hy, hz, active, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s,
@@ -525,15 +542,13 @@ def _update_slabs(
                     flags[i, j, k] = 0
                     continue
                 L, qh = _velocity_gradient(v, i, j, k, hx[i], hy[j], hz[k])
-                D, W = increments(L, dt)
-                M, f = material_update(tag, prm, s2, st2, c, D, W, max_sub, nlf[i, j, k] if nonlocal_ else 1.0, dbuf, wbuf)
+                le = characteristic_length(hx[i], hy[j], hz[k])
+                nl = nlf[i, j, k] if nonlocal_ else 1.0
+                M, f, rho, cd, q[i, j, k], dtc = cell_response(
+                    tag, prm, s2, st2, c, L, dt, max_sub, nl, dbuf, wbuf, mass[i, j, k], vs, le, b1, b2
+                )
                 flags[i, j, k] = f
                 modulus[i, j, k] = M
-                rho = mass[i, j, k] / vs
-                cd = np.sqrt(M / rho)
-                le = characteristic_length(hx[i], hy[j], hz[k])
-                tr = L[0] + L[4] + L[8]
-                q[i, j, k] = bulk_viscosity(b1, b2, rho, cd, le, tr)
                 # tangent shear modulus of this step's update, measured where the deviatoric strain
                 # increment is large enough for the stress change to resolve it; else the last value
                 # the stiffness of the modes: the soil's stiffest current response (its unloading
@@ -546,9 +561,6 @@ def _update_slabs(
                 chg = kappa * cd * a23 / 8.0
                 kfac = kappa_s * gt * dt / 64.0
                 hourglass_modes(s2, st2, hg, c, i, j, k, hoff, qh, (hx[i], hy[j], hz[k]), kfac, chg, rho, mf, cf)
-                # stable step of this cell, with the viscosity correction of the explicit scheme
-                vmax = np.sqrt(L[0] ** 2 + L[4] ** 2 + L[8] ** 2) * le
-                dtc = critical_step(le, cd, b1, b2, tr, vmax)
                 if dtc < best:
                     best = dtc
                     best_c = c
