@@ -69,7 +69,7 @@ def test_pile_run_matches_the_standalone_driver_and_writes_a_structured_grid(tmp
     f.geostatic([(0.0, E0)], k0=sc.initial.k0, intergranular=sc.initial.intergranular_strain)
     mu = sc.friction_coefficient()
     c = CylindricalPileContact(f, RigidPileRZ(a, -0.1), friction=mu, base_friction=mu)
-    c.wish_in_place()
+    assert c.wish_in_place() == pytest.approx(np.pi * a**2 * 0.1, rel=1e-9)  # the whole body's, as in r–z
     alone = []
     jack(c, 0.03, 0.5, ramp=0.01, callback=lambda c: alone.append((c.qb(), c.qs())))
     n = min(len(alone), len(seen) - 1) - 1

@@ -509,27 +509,37 @@ def share_on_levels(z, lz, rows, out):
 
 
 @njit(**KERNEL_OPTIONS)
-def stuck_mass(fn, ft, mu, fixed_z, nmass, corner_row, corner_mass, out):
-    """``out[j]`` = the node mass of a shaft node that sticks (|f_t| < μ f_n, pressed, not fixed vertically),
-    else 0: the soil mass the friction tied to the pile's vertical motion; in row ``corner_row`` (≥ 0, rim
-    "corner") the mass ``corner_mass`` instead of the node's."""
-    for j in range(fn.shape[0]):
-        stick = fn[j] > 0.0 and abs(ft[j]) < mu * fn[j] * (1.0 - 1e-12) and not fixed_z[j]
-        out[j] = (corner_mass if j == corner_row else nmass[j]) if stick else 0.0
+def shaft_rows(fn, ft, mu, fixed_z, nmass, corner_row, corner_mass, rows):
+    """Per node row k of the shaft, summed over its node lines j (``fn``, ``ft``, ``fixed_z``, ``nmass``: (lines,
+    rows)): ``rows[k]`` = (friction, −normal force, the mass of the nodes that stick: |f_t| < μ f_n, pressed, not
+    fixed vertically); in row ``corner_row`` (≥ 0, rim "corner") a sticking node's mass is ``corner_mass[j]``."""
+    for k in range(fn.shape[1]):
+        a = 0.0
+        b = 0.0
+        m = 0.0
+        for j in range(fn.shape[0]):
+            a += ft[j, k]
+            b -= fn[j, k]
+            if fn[j, k] > 0.0 and abs(ft[j, k]) < mu * fn[j, k] * (1.0 - 1e-12) and not fixed_z[j, k]:
+                m += corner_mass[j] if k == corner_row else nmass[j, k]
+        rows[k, 0] = a
+        rows[k, 1] = b
+        rows[k, 2] = m
 
 
 @njit(**KERNEL_OPTIONS)
-def moved_mass_rz(v, v_trial, nmass, ia, kc, rim_base):
-    """The mass of the base's and the interior nodes (i < i_a, rows ≥ kc) whose vertical velocity the base's
-    projection changed (``v_trial``: from row kc up), and of the rim node i_a in the base's row if the base acts
-    on it (``rim_base``)."""
+def moved_mass(v, v_trial, nmass, ia, kc, rim_base, zc):
+    """The mass of the base's and the interior nodes (i < i_a, rows ≥ kc; the axis once) whose vertical velocity
+    (component ``zc``) the base's projection changed from ``v_trial``, and of the rim nodes i_a in the base's row
+    if the base acts on them (``rim_base``); arrays (r, line, z[, component])."""
     total = 0.0
     for i in range(ia + 1):
-        for k in range(kc, v.shape[1]):
-            if i == ia and (k > kc or not rim_base):
-                continue
-            if v[i, k, 1] != v_trial[i, k - kc, 1]:
-                total += nmass[i, k]
+        for j in range(v.shape[1] if i > 0 else 1):
+            for k in range(kc, v.shape[2]):
+                if i == ia and (k > kc or not rim_base):
+                    continue
+                if v[i, j, k, zc] != v_trial[i, j, k, zc]:
+                    total += nmass[i, j, k]
     return total
 
 
@@ -587,26 +597,22 @@ class AxisymmetricPileContact:
         self.base = base
         self.ia = ia
         nz1 = g.nz + 1
-        #: per shaft node, the last step's normal (pressure) and vertical friction force on the pile, N/rad
+        #: per shaft node row, the last step's normal (pressure) and vertical friction force on the pile (N/rad:
+        #: the ring's per radian in both geometries)
         self.shaft_normal = np.zeros(nz1)
         self.shaft_friction = np.zeros(nz1)
         self._out = np.zeros(6)
         self._work = np.zeros(5)
-        #: the whole pile's forces per force of the model (per radian in r–z)
-        self.extent_scale = 2.0 * math.pi
-        self._rows = np.zeros((nz1, 3))  # per node row: shaft friction, −normal force, stuck mass (_level_load)
-        # the nodes of the columns 0..ia before the nodal pass and after it (trial), reused every step
-        self._v_old = np.zeros((ia + 1, nz1, 2))
-        self._v_trial = np.zeros((ia + 1, nz1, 2))
-        self._vs = np.zeros(nz1)  # the shaft's vertical velocity per node row, filled every step
-        # rim "corner" (corner_rz): the parts' relative velocities and (v_z^in, v_r^B), the corrections of the
-        # energies, the node's mean velocity while the field's node holds (v_r^A, v_z^out) (None: the field holds
-        # the mean) and the vertical mesh motion of v_z^in and the radial one of v_r^B since the last remap
-        self._corner = np.zeros(4)
         self._cw = np.zeros(6)
-        self._v_comb: tuple[float, float] | None = None
-        self._u_in = 0.0
-        self._u_B = 0.0
+        self._vs = np.zeros(nz1)  # the shaft's vertical velocity per node row, filled every step
+        self._rows = np.zeros((nz1, 3))  # per node row: shaft friction, −normal force, stuck mass (_level_load)
+        self._allocate(field, ia)
+        self._no_corner_mass = np.zeros(self.line_normal.shape[0])
+        self._corner_lines = self._corner.reshape(-1, 4)  # (a view: per node line)
+        self._rz = np.array([0, self._zc])  # the radial and vertical components of a node vector
+        # rim "corner": the node's (the ring's) mean velocity (v_r, v_z) per node line while the field's nodes hold
+        # (v_r^A, v_z^out) (None: the field holds the mean)
+        self._v_ring: np.ndarray | None = None
         self._kc = -1
         # base_row() every step: the grid's node elevations as a list (bisect) and the tolerance, once
         self._z_nodes = g.z.tolist()
@@ -626,6 +632,48 @@ class AxisymmetricPileContact:
         #: mesh motion into the pile removed before the remaps (m, summed over the nodes and remaps)
         self.clamped_motion = 0.0
         field.contact = self
+
+    # --- what the r–z geometry supplies (the cylindrical contact overrides these) -------------------------------
+    #: the vertical component of a node vector
+    _zc = 1
+
+    @staticmethod
+    def _lines(a: np.ndarray) -> np.ndarray:
+        """A node or cell array with the axis of node lines θ_j (r–z: one line) after the radial one."""
+        return a[:, None]
+
+    def _allocate(self, field, ia: int) -> None:
+        """The arrays shaped by the geometry: the nodes of the columns 0..i_a before the nodal pass and after it
+        (trial), per shaft node line the normal and friction forces, and for the rim "corner" per node line the
+        parts' relative velocities and (v_z^in, v_r^B) (:func:`corner_rz`) and the vertical mesh motion of v_z^in
+        and the radial one of v_r^B since the last remap."""
+        nz1 = field.grid.nz + 1
+        #: the whole pile's forces per force of the model (per radian in r–z)
+        self.extent_scale = 2.0 * math.pi
+        self._v_old = np.zeros((ia + 1, nz1, 2))
+        self._v_trial = np.zeros((ia + 1, nz1, 2))
+        self.line_normal = self.shaft_normal[None, :]
+        self.line_friction = self.shaft_friction[None, :]
+        self._corner = np.zeros(4)
+        self._u_in = np.zeros(1)
+        self._u_B = np.zeros(1)
+
+    def _project(self, s: Surface, kc: int, vp: float, vs: np.ndarray, dt: float) -> tuple[float, bool, float]:
+        """The step's projection of the trial velocities (:func:`contact_step_rz`)."""
+        f = self.field
+        t_edge = -1.0
+        if self.base == "edge" and kc + 1 <= f.grid.nz:
+            t_edge = min(max((s.z_apex - f.frame_offset - self._z_nodes[kc]) / f.hz[kc], 0.0), 1.0)
+        return contact_step_rz(
+            self.ia, kc, t_edge, f.hr, f.hz, f.rc, f.Vs, f.mass, f.stress, f.q, f.hg, f.nmass, f.v, f.fix,
+            f.mass_tiny, f.gravity, vp, vs, self.mu, self.mu_base, self._rim_code, dt, self._v_old, self._v_trial,
+            self.shaft_normal, self.shaft_friction, self._out, self._work, self._corner, self._cw,
+        )  # fmt: skip
+
+    @staticmethod
+    def _sectors_to_lines(per_sector: np.ndarray) -> np.ndarray:
+        """A per-sector quantity shared by the node lines on its sides (r–z: the plane's one line has it twice)."""
+        return 2.0 * per_sector
 
     # --- geometry ---------------------------------------------------------------------------------------
     @property
@@ -677,7 +725,7 @@ class AxisymmetricPileContact:
         g = self.field.grid
         zb = self.z_base_grid if z_base is None else z_base
         out = np.zeros(g.shape)
-        out[: self.ia, :] = np.clip((g.z[1:] - zb) / g.hz, 0.0, 1.0)[None, :]
+        out[: self.ia] = np.clip((g.z[1:] - zb) / g.hz, 0.0, 1.0)  # (z is the last axis)
         return out
 
     def pile_volume(self) -> float:
@@ -700,7 +748,7 @@ class AxisymmetricPileContact:
         f.stress[empty] = 0.0
         f.state[empty] = 0.0
         f.initialise()
-        return 2.0 * math.pi * (before - float(f.Vs.sum()))
+        return self.extent_scale * (before - float(f.Vs.sum()))
 
     def soil_inside(self) -> float:
         """Soil volume inside the pile, Σ max(0, V_s − (1 − φ_pile) V) (m³, the whole ring), with the pile
@@ -708,7 +756,7 @@ class AxisymmetricPileContact:
         has moved on by up to ``remap_courant`` of a cell since)."""
         f = self.field
         over = np.minimum(f.Vs, f.volume) - (1.0 - self.pile_fraction(self._z_remap)) * f.volume
-        return 2.0 * math.pi * float(np.maximum(over, 0.0).sum())
+        return self.extent_scale * float(np.maximum(over, 0.0).sum())
 
     # --- the step -----------------------------------------------------------------------------------------
     def step(self, v_head: float) -> None:
@@ -738,10 +786,12 @@ class AxisymmetricPileContact:
         # a fixed grid the base reaches the next row within a cycle)
         f.level0_nodes[0] = self.ia + 1
         f.level0_nodes[1] = kc - 1
-        if self._v_comb is not None:  # the nodal pass works on the corner's mean velocity
-            f.v[self.ia, kc] = self._v_comb
-            self._v_comb = None
-        self._v_old[:, kc:] = f.v[: self.ia + 1, kc:]
+        v = self._lines(f.v)
+        if self._v_ring is not None:  # the nodal pass works on the corner ring's mean velocities
+            v[self.ia, :, kc, 0] = self._v_ring[:, 0]
+            v[self.ia, :, kc, self._zc] = self._v_ring[:, 1]
+            self._v_ring = None
+        self._lines(self._v_old)[:, :, kc:] = v[: self.ia + 1, :, kc:]
 
     def apply(self, dt: float) -> None:
         """Project the trial velocities (in place) and record the forces and the work of the step."""
@@ -758,40 +808,34 @@ class AxisymmetricPileContact:
             vs.fill(vp)
         else:  # (clamped to the end levels beyond them, as in 3D)
             vs = np.interp(self._row_elevations(), s.layer_z, s.layer_v[:, 2])
-        t_edge = -1.0
-        if self.base == "edge" and kc + 1 <= f.grid.nz:
-            t_edge = min(max((s.z_apex - f.frame_offset - self._z_nodes[kc]) / f.hz[kc], 0.0), 1.0)
-        w = self._work
-        worst, stray, fsum = contact_step_rz(
-            ia, kc, t_edge, f.hr, f.hz, f.rc, f.Vs, f.mass, f.stress, f.q, f.hg, f.nmass, f.v, f.fix, f.mass_tiny,
-            f.gravity, vp, vs, self.mu, self.mu_base, self._rim_code, dt, self._v_old, self._v_trial,
-            self.shaft_normal, self.shaft_friction, out, w, self._corner, self._cw,
-        )  # fmt: skip
+        worst, stray, fsum = self._project(s, kc, vp, vs, dt)
         if worst > -math.inf:
             self.worst_friction_excess = max(self.worst_friction_excess, worst)
             if worst > 1e-9:
                 raise RuntimeError(f"shaft friction exceeds μ × normal force by {worst:.3g} (relative)")
         elif stray:
             raise RuntimeError("shaft friction without a normal force")
-        two_pi = 2.0 * math.pi
-        self.base_force[0] = two_pi * out[0]
-        self.base_force[1] = two_pi * out[1]
-        self.shaft_force[0] = two_pi * fsum
-        self.shaft_force[1] = two_pi * out[3]
+        sc = self.extent_scale
+        self.base_force[:] = sc * out[0], sc * out[1]
+        self.shaft_force[:] = sc * fsum, sc * out[3]
         self.contact_nodes = int(out[5])
-        self.pile.load = self._level_load(s, kc, self._v_trial[:, kc:], dt)
+        self.pile.load = self._level_load(s, kc, dt)
         self._pile_motion += (vp - f.frame_velocity) * dt
         if self.rim == "corner":
-            # the cells and the mesh motion see (v_r^A, v_z^out) at the node; the cells left of it v_z^in, the
-            # cell beside the shaft v_r^B (field.split)
-            wz, wr, zi, rb = self._corner
-            self._v_comb = (float(f.v[ia, kc, 0]), float(f.v[ia, kc, 1]))
-            f.v[ia, kc, 0] = rb - wr
-            f.v[ia, kc, 1] = zi + wz
-            f.split[:] = (ia, kc, zi, rb)
-            self._u_in += (zi - f.frame_velocity) * dt
-            self._u_B += rb * dt
+            # the cells and the mesh motion see (v_r^A, v_z^out) at the ring's nodes; the cells left of it v_z^in,
+            # the cells beside the shaft v_r^B (the field's split_*)
+            c = self._corner_lines
+            ring = self._lines(f.v)[ia, :, kc]
+            self._v_ring = ring[:, self._rz]  # (a copy)
+            ring[:, 0] = c[:, 3] - c[:, 1]
+            ring[:, self._zc] = c[:, 2] + c[:, 0]
+            f.split_ring = (ia, kc)
+            f.split_z[:] = c[:, 2]
+            f.split_r[:] = c[:, 3]
+            self._u_in += (c[:, 2] - f.frame_velocity) * dt
+            self._u_B += c[:, 3] * dt
             f.kinetic_correction = float(self._cw[5])
+        w = self._work
         e = f.energy
         e["internal"] += w[0]
         e["viscous"] += w[1]
@@ -808,19 +852,22 @@ class AxisymmetricPileContact:
         f = self.field
         return f.grid.z + f.frame_offset
 
-    def _level_load(self, s: Surface, kc: int, v_trial: np.ndarray, dt: float) -> ContactLoad:
+    def _level_load(self, s: Surface, kc: int, dt: float) -> ContactLoad:
         """The step's forces per level of the pile (the 3D contact's :class:`ContactLoad`, modelled part):
         every shaft node's shared linearly between the two levels around its elevation, the base's on the
         lowest level; the tied soil mass: a shaft node that sticks (|f_t| < μ f_n), a base or interior node
-        whose vertical velocity the base changed."""
+        whose vertical velocity the base changed. Per node row, the ring's sums over its node lines."""
         f = self.field
-        ia = self.ia
-        rows = self._rows
-        rows[:, 0] = self.shaft_friction
-        rows[:, 1] = -self.shaft_normal
-        corner = (kc, 0.25 * (f.mass[ia, kc - 1] + f.mass[ia, kc])) if self.rim == "corner" else (-1, 0.0)  # (outer half)
-        stuck_mass(self.shaft_normal, self.shaft_friction, self.mu, f.fix[ia, :, 1], f.nmass[ia], *corner, rows[:, 2])
-        return self._load_on_levels(s, rows, moved_mass_rz(f.v, v_trial, f.nmass, ia, kc, self.rim != "shaft"), dt)
+        ia, zc, L = self.ia, self._zc, self._lines
+        corner, corner_mass = -1, self._no_corner_mass
+        if self.rim == "corner":  # the ring's outer half: a quarter of each of its cells
+            m = L(f.mass)
+            corner, corner_mass = kc, self._sectors_to_lines(0.125 * (m[ia, :, kc - 1] + m[ia, :, kc]))
+        nmass = L(f.nmass)
+        shaft_rows(self.line_normal, self.line_friction, self.mu, L(f.fix)[ia, :, :, zc], nmass[ia], corner,
+                   corner_mass, self._rows)  # fmt: skip
+        moved = moved_mass(L(f.v), L(self._v_trial), nmass, ia, kc, self.rim != "shaft", zc)
+        return self._load_on_levels(s, self._rows, moved, dt)
 
     def _load_on_levels(self, s: Surface, rows: np.ndarray, moved: float, dt: float) -> ContactLoad:
         """:class:`ContactLoad` from the node rows' shaft friction, shaft normal force (negative) and stuck mass
@@ -847,11 +894,12 @@ class AxisymmetricPileContact:
 
     def before_remap(self, displacement: np.ndarray) -> None:
         """No inward mesh motion through the shaft's faces (u_r ≥ 0 on the shaft column from the base row
-        up), so the remap cannot carry soil into the pile (module docstring)."""
-        ia, kc = self.ia, self.base_row()
+        up), so the remap cannot carry soil into the pile (module docstring); on every node line."""
+        ia, kc, zc = self.ia, self.base_row(), self._zc
         self._z_remap = self.z_base_grid
         corner = self.rim == "corner"
-        col = displacement[ia, kc + 1 if corner else kc :, 0]  # (the corner's radial motion A is under the base)
+        u = self._lines(displacement)
+        col = u[ia, :, kc + 1 if corner else kc :, 0]  # (the corner's radial motion A is under the base)
         neg = col < 0.0
         if neg.any():
             self.clamped_motion -= float(col[neg].sum())
@@ -859,31 +907,36 @@ class AxisymmetricPileContact:
         # no mesh motion upwards relative to the pile through the top faces of the cells the base is in (the
         # nodes above the base, i < i_a, and the shaft node at the pile's corner, which is also the top corner
         # of the cell under the base's edge): the soil of those cells is not lifted into the pile
-        up = displacement[: ia + 1, kc + 1 :, 1] - self._pile_motion
+        up = u[: ia + 1, :, kc + 1 :, zc] - self._pile_motion
         # (in the pile's frame the base lies on row kc: no cell is cut by it, the shaft node above the corner
         # is a shaft node like the others, and clamping it would stretch the cell above it in the remap)
-        up[ia, 0 if self._z_frame is not None else 1 :] = 0.0
-        pos = (up > 0.0) & (self.field.nmass[: ia + 1, kc + 1 :] > self.field.mass_tiny)
+        up[ia, :, 0 if self._z_frame is not None else 1 :] = 0.0
+        pos = (up > 0.0) & (self._lines(self.field.nmass)[: ia + 1, :, kc + 1 :] > self.field.mass_tiny)
         if pos.any():
             self.clamped_motion += float(up[pos].sum())
-            displacement[: ia + 1, kc + 1 :, 1] -= np.where(pos, up, 0.0)
+            u[: ia + 1, :, kc + 1 :, zc] -= np.where(pos, up, 0.0)
         # the rim node: where it lags the base ("split", "shaft"), the soil of the cell under the base's edge
         # still leaves that cell with the base (the transport follows the pile there, the strain does not)
-        lag = displacement[ia, kc, 1] - self._pile_motion
-        if lag > 0.0 and self.rim in ("split", "shaft"):
-            self.clamped_motion += lag
-            displacement[ia, kc, 1] -= lag
+        lag = u[ia, :, kc, zc] - self._pile_motion
+        if self.rim in ("split", "shaft") and (lag > 0.0).any():
+            self.clamped_motion += float(lag[lag > 0.0].sum())
+            u[ia, :, kc, zc] -= np.maximum(lag, 0.0)
         self._pile_motion = 0.0
         f = self.field
+        f.tie_nodes(displacement)  # (the clamps above act on the independent nodes: the slaved follow them)
         if corner:
-            # the node's own motion is (A, out); the vertical motion "in" goes to the cell under the base's
-            # edge, the radial one B to the cell beside the shaft
-            f.remap_split[:] = (ia, kc, self._u_in, self._u_B)
-            self._u_in = 0.0
-            self._u_B = 0.0
-            if self._v_comb is not None:  # the remap carries the node's momentum
-                f.v[ia, kc] = self._v_comb
-                self._v_comb = None
+            # the ring's own motion is (A, out); the vertical motion "in" goes to the cells under the base's
+            # edge, the radial one B to the cells beside the shaft
+            f.split_ring = (ia, kc)
+            f.remap_split_z[:] = self._u_in
+            f.remap_split_r[:] = self._u_B
+            self._u_in[:] = 0.0
+            self._u_B[:] = 0.0
+            if self._v_ring is not None:  # the remap carries the nodes' momentum
+                v = self._lines(f.v)
+                v[ia, :, kc, 0] = self._v_ring[:, 0]
+                v[ia, :, kc, zc] = self._v_ring[:, 1]
+                self._v_ring = None
 
     # --- checkpoints -----------------------------------------------------------------------------------------
     #: the contact's force arrays a checkpoint keeps
@@ -921,12 +974,15 @@ class AxisymmetricPileContact:
 
     def state_arrays(self) -> dict[str, np.ndarray]:
         """Everything of the pile and the contact a restart needs (copies), by name (a pile body's own arrays
-        with the prefix ``body_``): :meth:`_saved_scalars`, then the split corner's node."""
+        with the prefix ``body_``): :meth:`_saved_scalars`, the force arrays, then the split corner's node ring."""
         scalars, body = self._saved_scalars()
-        vc = (math.nan, math.nan) if self._v_comb is None else self._v_comb
-        scalars += [*self._corner, *vc, self._u_in, self._u_B]
+        ring = np.full((self._u_in.shape[0], 2), np.nan) if self._v_ring is None else self._v_ring
         return {
             "scalars": np.array(scalars, dtype=float),
+            "corner": self._corner.copy(),
+            "v_ring": ring.copy(),
+            "u_in": self._u_in.copy(),
+            "u_B": self._u_B.copy(),
             **{name: getattr(self, name).copy() for name in self.saved_arrays},
             **body,
         }
@@ -935,10 +991,16 @@ class AxisymmetricPileContact:
         """The state saved by :meth:`state_arrays`."""
         sc = [float(x) for x in arrays["scalars"]]
         self._restore_saved_scalars(sc, arrays)
-        if len(sc) > 14:  # (checkpoints before rim = "corner")
+        if "corner" in arrays:
+            self._corner[...] = arrays["corner"]
+            ring = np.asarray(arrays["v_ring"])
+            self._v_ring = None if np.isnan(ring).all() else ring.copy()
+            self._u_in[:] = arrays["u_in"]
+            self._u_B[:] = arrays["u_B"]
+        elif len(sc) > 14:  # (an r–z checkpoint that kept the corner among its scalars)
             self._corner[:] = sc[14:18]
-            self._v_comb = None if math.isnan(sc[18]) else (sc[18], sc[19])
-            self._u_in, self._u_B = sc[20:22]
+            self._v_ring = None if math.isnan(sc[18]) else np.array([[sc[18], sc[19]]])
+            self._u_in[:], self._u_B[:] = sc[20:22]
 
     # --- what users look at ----------------------------------------------------------------------------------
     def embedded_length(self) -> float:

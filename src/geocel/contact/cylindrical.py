@@ -27,8 +27,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ..bodies.pile import ContactLoad, PileBody, Surface
-from ..euler.cylindrical import follow_masters, gather_node_force_cyl
+from ..bodies.pile import PileBody, Surface
+from ..euler.cylindrical import gather_node_force_cyl
 from ..materials.tensor import KERNEL_OPTIONS
 from .axisym import AxisymmetricPileContact, RigidPileRZ, _split_trial, _split_velocity
 
@@ -338,219 +338,62 @@ def contact_step_cyl(
 
 class CylindricalPileContact(AxisymmetricPileContact):
     """Contact of a flat-based pile on the axis with a :class:`~geocel.solver.cylindrical_field.CylindricalField`
-    (module docstring); the r–z contact's geometry, frame and outputs (``qb``, ``qs``, ``base_force`` and
-    ``shaft_force`` of the whole pile), its steps on every node line. ``rim``: "corner" (the pile's frame),
-    "base" or "shaft"."""
+    (module docstring): the ring contact of :class:`AxisymmetricPileContact` (its geometry, frame, step, remap
+    hooks, checkpoints and outputs: ``qb``, ``qs``, ``base_force`` and ``shaft_force`` of the whole pile) on every
+    node line, with this geometry's arrays and projection kernel. ``rim``: "corner" (the pile's frame), "base" or
+    "shaft"."""
+
+    _zc = 2
+
+    @staticmethod
+    def _lines(a: np.ndarray) -> np.ndarray:
+        return a
 
     def __init__(
         self, field, pile: RigidPileRZ | PileBody, friction: float, base_friction: float = 0.0, rim: str = "base"
     ) -> None:
         if rim not in RIM_OPTIONS_CYL:
             raise ValueError(f"rim = {rim!r}: choose one of {', '.join(RIM_OPTIONS_CYL)}")
-        g = field.grid
-        super().__init__(_LineView(field), pile, friction, base_friction, rim)
-        if g.ties[self.ia - 1] != 1:
+        super().__init__(field, pile, friction, base_friction, rim)
+        ties = field.grid.ties[self.ia - 1]
+        if ties != 1:
             raise ValueError(
-                f"the sectors next to the pile's shaft are tied ({g.ties[self.ia - 1]}): its node ring must be "
-                "independent (fewer sectors, or a smaller min_arc)"
+                f"the sectors next to the pile's shaft are tied ({ties}): its node ring must be independent (fewer "
+                "sectors, or a smaller min_arc)"
             )
-        self.field = field
-        field.contact = self
+
+    def _allocate(self, field, ia: int) -> None:
+        g = field.grid
         nt1, nz1 = g.ntheta + 1, g.nz + 1
         #: the whole pile's forces per force of the modelled sector
         self.extent_scale = 2.0 * math.pi / g.angle
+        self._v_old = np.zeros((ia + 1, nt1, nz1, 3))
+        self._v_trial = np.zeros((ia + 1, nt1, nz1, 3))
         #: per shaft node (line j, row k), the last step's normal and vertical friction force on the pile (N,
         #: the sector's)
         self.line_normal = np.zeros((nt1, nz1))
         self.line_friction = np.zeros((nt1, nz1))
-        self._v_old = np.zeros((self.ia + 1, nt1, nz1, 3))
-        self._v_trial = np.zeros((self.ia + 1, nt1, nz1, 3))
         self._corner = np.zeros((nt1, 4))
-        self._v_ring: np.ndarray | None = None
         self._u_in = np.zeros(nt1)
         self._u_B = np.zeros(nt1)
 
-    def pile_fraction(self, z_base: float | None = None) -> np.ndarray:
-        """Fraction of every cell inside the pile (nr, nθ, nz)."""
-        g = self.field.grid
-        zb = self.z_base_grid if z_base is None else z_base
-        out = np.zeros(g.shape)
-        out[: self.ia] = np.clip((g.z[1:] - zb) / g.hz, 0.0, 1.0)[None, None, :]
-        return out
-
-    def wish_in_place(self) -> float:
-        """As :meth:`AxisymmetricPileContact.wish_in_place`; returns the removed soil volume of the whole body (m³)."""
+    def _project(self, s: Surface, kc: int, vp: float, vs: np.ndarray, dt: float) -> tuple[float, bool, float]:
+        """:func:`contact_step_cyl`; the ring's forces per node row as r–z's per radian (the sector's sum / Θ)."""
         f = self.field
-        before = float(f.Vs.sum())
-        super().wish_in_place()
-        return self.extent_scale * (before - float(f.Vs.sum())) / (2.0 * math.pi)
-
-    def soil_inside(self) -> float:
-        """Soil volume inside the pile (m³, the whole body), with the pile where it was at the last remap."""
-        return super().soil_inside() / (2.0 * math.pi) * self.extent_scale
-
-    # --- the step -----------------------------------------------------------------------------------------
-    def before_nodes(self, dt: float | None = None) -> None:
-        f = self.field
-        if self._z_frame is not None and dt is not None:
-            f.frame_velocity = (self.z_base - f.frame_offset - self._z_frame) / dt
-            self._kc = kc = int(np.searchsorted(self._z_nodes, self._z_frame + self._row_tol, "right") - 1)
-        else:
-            if self.rim == "corner":
-                raise ValueError('rim = "corner" needs the pile\'s frame ([domain] frame = "pile", follow_pile())')
-            self._kc = kc = self.base_row()
-        if self._v_ring is not None:  # the nodal pass works on the corner ring's mean velocities
-            f.v[self.ia, :, kc, 0] = self._v_ring[:, 0]
-            f.v[self.ia, :, kc, 2] = self._v_ring[:, 1]
-            self._v_ring = None
-        self._v_old[:, :, kc:] = f.v[: self.ia + 1, :, kc:]
-
-    def apply(self, dt: float) -> None:
-        f = self.field
-        if self._kc < 0:
-            self.before_nodes(dt)
-        kc, ia = self._kc, self.ia
-        self._kc = -1
-        out = self._out
-        s = self.pile.surface()
-        vp = float(s.layer_v[0, 2])
-        if s.layer_z.shape[0] == 1:
-            vs = self._vs
-            vs.fill(vp)
-        else:
-            vs = np.interp(self._row_elevations(), s.layer_z, s.layer_v[:, 2])
-        w = self._work
-        worst, stray, fsum = contact_step_cyl(
-            ia, kc, f._force_factors, f.grid.ties, f.mass, f.nmass, f.v, f.fix, f.mass_tiny, f.gravity, vp, vs, self.mu,
-            self.mu_base, self._rim_code, dt, self._v_old, self._v_trial, self.line_normal, self.line_friction, out,
-            w, self._corner, self._cw,
+        res = contact_step_cyl(
+            self.ia, kc, f._force_factors, f.grid.ties, f.mass, f.nmass, f.v, f.fix, f.mass_tiny, f.gravity, vp, vs,
+            self.mu, self.mu_base, self._rim_code, dt, self._v_old, self._v_trial, self.line_normal,
+            self.line_friction, self._out, self._work, self._corner, self._cw,
         )  # fmt: skip
-        if worst > -math.inf:
-            self.worst_friction_excess = max(self.worst_friction_excess, worst)
-            if worst > 1e-9:
-                raise RuntimeError(f"shaft friction exceeds μ × normal force by {worst:.3g} (relative)")
-        elif stray:
-            raise RuntimeError("shaft friction without a normal force")
-        sc = self.extent_scale
-        self.base_force[:] = sc * out[0], sc * out[1]
-        self.shaft_force[:] = sc * fsum, sc * out[3]
-        # per node row, the ring's forces as r–z's per radian (the sector's sum / Θ): shaft_pressure, the level load
         self.shaft_normal[:] = self.line_normal.sum(axis=0) / f.grid.angle
         self.shaft_friction[:] = self.line_friction.sum(axis=0) / f.grid.angle
-        self.contact_nodes = int(out[5])
-        self.pile.load = self._level_load(s, kc, self._v_trial[:, :, kc:], dt)
-        self._pile_motion += (vp - f.frame_velocity) * dt
-        if self.rim == "corner":
-            c = self._corner
-            self._v_ring = np.stack((f.v[ia, :, kc, 0], f.v[ia, :, kc, 2]), axis=-1)
-            # the cells and the mesh motion see (v_r^A, v_z^out) at the ring's nodes; the cells left of it v_z^in,
-            # the cells beside the shaft v_r^B
-            f.v[ia, :, kc, 0] = c[:, 3] - c[:, 1]
-            f.v[ia, :, kc, 2] = c[:, 2] + c[:, 0]
-            f.split_ring = (ia, kc)
-            f.split_z[:] = c[:, 2]
-            f.split_r[:] = c[:, 3]
-            self._u_in += (c[:, 2] - f.frame_velocity) * dt
-            self._u_B += c[:, 3] * dt
-            f.kinetic_correction = float(self._cw[5])
-        e = f.energy
-        e["internal"] += w[0]
-        e["viscous"] += w[1]
-        e["hourglass"] += w[2]
-        e["gravity_work"] += w[3]
-        e["external_work"] += w[3] + w[4]
-        self.soil_work += w[4]
-        self.friction_work += out[4] * dt - w[4]
+        return res
 
-    def _level_load(self, s: Surface, kc: int, v_trial: np.ndarray, dt: float) -> ContactLoad:
-        """As :meth:`AxisymmetricPileContact._level_load`, with the ring's forces and masses summed over the
-        node lines."""
-        f = self.field
-        fn, ft = self.line_normal, self.line_friction
-        ia = self.ia
-        stick = (fn > 0.0) & (np.abs(ft) < self.mu * fn * (1.0 - 1e-12)) & ~f.fix[ia, :, :, 2].astype(bool)
-        m_shaft = np.where(stick, f.nmass[ia], 0.0)
-        if self.rim == "corner":  # (the outer half only)
-            m_out = 0.125 * (f.mass[ia, :, kc - 1] + f.mass[ia, :, kc])
-            m_ring = np.zeros(f.grid.ntheta + 1)
-            m_ring[:-1] += m_out
-            m_ring[1:] += m_out
-            m_shaft[:, kc] = np.where(stick[:, kc], m_ring, 0.0)
-        rows = np.stack((ft.sum(axis=0), -fn.sum(axis=0), m_shaft.sum(axis=0)), axis=-1)
-        moved = f.v[: ia + 1, :, kc:, 2] != v_trial[:, :, :, 2]
-        moved[ia, :, 1 if self.rim != "shaft" else 0 :] = False
-        moved[0, 1:] = False  # (the axis once)
-        return self._load_on_levels(s, rows, float(f.nmass[: ia + 1, :, kc:][moved].sum()), dt)
+    @staticmethod
+    def _sectors_to_lines(per_sector: np.ndarray) -> np.ndarray:
+        out = np.zeros(per_sector.shape[0] + 1)
+        out[:-1] += per_sector
+        out[1:] += per_sector
+        return out
 
-    def before_remap(self, displacement: np.ndarray) -> None:
-        """No inward mesh motion through the shaft's faces and none upwards relative to the pile above its base
-        (:meth:`AxisymmetricPileContact.before_remap`), on every node line."""
-        ia, kc = self.ia, self.base_row()
-        self._z_remap = self.z_base_grid
-        corner = self.rim == "corner"
-        col = displacement[ia, :, kc + 1 if corner else kc :, 0]
-        neg = col < 0.0
-        if neg.any():
-            self.clamped_motion -= float(col[neg].sum())
-            col[neg] = 0.0
-        up = displacement[: ia + 1, :, kc + 1 :, 2] - self._pile_motion
-        up[ia, :, 0 if self._z_frame is not None else 1 :] = 0.0
-        pos = (up > 0.0) & (self.field.nmass[: ia + 1, :, kc + 1 :] > self.field.mass_tiny)
-        if pos.any():
-            self.clamped_motion += float(up[pos].sum())
-            displacement[: ia + 1, :, kc + 1 :, 2] -= np.where(pos, up, 0.0)
-        lag = displacement[ia, :, kc, 2] - self._pile_motion
-        if self.rim == "shaft" and (lag > 0.0).any():
-            self.clamped_motion += float(lag[lag > 0.0].sum())
-            displacement[ia, :, kc, 2] -= np.maximum(lag, 0.0)
-        self._pile_motion = 0.0
-        f = self.field
-        if f._tied:  # (the clamps above act on the independent nodes: the slaved follow them)
-            follow_masters(displacement, f._node_factors)
-        if corner:
-            f.remap_split_z[:] = self._u_in
-            f.remap_split_r[:] = self._u_B
-            self._u_in[:] = 0.0
-            self._u_B[:] = 0.0
-            if self._v_ring is not None:  # the remap carries the nodes' momentum
-                f.v[ia, :, kc, 0] = self._v_ring[:, 0]
-                f.v[ia, :, kc, 2] = self._v_ring[:, 1]
-                self._v_ring = None
-
-    # --- checkpoints -----------------------------------------------------------------------------------------
     saved_arrays = (*AxisymmetricPileContact.saved_arrays, "line_normal", "line_friction")
-
-    def state_arrays(self) -> dict[str, np.ndarray]:
-        """Everything of the pile and the contact a restart needs (copies), by name: the r–z contact's
-        scalars, then the split ring's node arrays."""
-        scalars, body = self._saved_scalars()
-        ring = np.full((self._corner.shape[0], 2), np.nan) if self._v_ring is None else self._v_ring
-        return {
-            "scalars": np.array(scalars, dtype=float),
-            "corner": self._corner.copy(),
-            "v_ring": ring.copy(),
-            "u_in": self._u_in.copy(),
-            "u_B": self._u_B.copy(),
-            **{name: getattr(self, name).copy() for name in self.saved_arrays},
-            **body,
-        }
-
-    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
-        """The state saved by :meth:`state_arrays`."""
-        self._restore_saved_scalars([float(x) for x in arrays["scalars"]], arrays)
-        self._corner[...] = arrays["corner"]
-        ring = np.asarray(arrays["v_ring"])
-        self._v_ring = None if np.isnan(ring).all() else ring.copy()
-        self._u_in[:] = arrays["u_in"]
-        self._u_B[:] = arrays["u_B"]
-
-
-
-class _LineView:
-    """What :class:`AxisymmetricPileContact`'s constructor reads of a field (the grid's r and z, the frame's
-    offset), for a cylindrical field."""
-
-    def __init__(self, field) -> None:
-        self.grid = field.grid
-        self.frame_offset = field.frame_offset
-        self.contact = None

@@ -110,11 +110,35 @@ class AxisymmetricField(EulerianField):
         self.cell_level = np.zeros(g.shape, dtype=np.int8)
         self.node_level = np.zeros((g.nr + 1, g.nz + 1), dtype=np.int8)
         self.multirate_clock = np.zeros(2)
-        #: the nodes kept at level 0: the first ``level0_nodes[0]`` columns from the row ``level0_nodes[1]`` up (set by
-        #: the contact: the nodes it projects)
-        self.level0_nodes = np.zeros(2, dtype=np.int64)
         # the columns of the non-local mean per level of the step (_multirate_cycle)
         self._nonlocal_columns = np.full(max(self.settings.multirate_levels, 0) + 1, g.nr, dtype=np.int64)
+
+    # the split corner as the ring contact sets it (geocel.contact.axisym), in the cylindrical field's terms: the
+    # node (i, k) and, per node line (r–z: one), the velocities and mesh motions of its parts
+    @property
+    def split_ring(self) -> tuple[int, int]:
+        return int(self.split[0]), int(self.split[1])
+
+    @split_ring.setter
+    def split_ring(self, ik: tuple[int, int]) -> None:
+        self.split[:2] = ik
+        self.remap_split[:2] = ik
+
+    @property
+    def split_z(self) -> np.ndarray:
+        return self.split[2:3]
+
+    @property
+    def split_r(self) -> np.ndarray:
+        return self.split[3:4]
+
+    @property
+    def remap_split_z(self) -> np.ndarray:
+        return self.remap_split[2:3]
+
+    @property
+    def remap_split_r(self) -> np.ndarray:
+        return self.remap_split[3:4]
 
     # --- what the r–z geometry supplies to the step (geocel.solver.field.EulerianField) ---------------------------
     def nodal_pass(self, dt: float, phase: int = 0) -> tuple[float, ...]:

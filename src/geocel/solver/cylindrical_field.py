@@ -119,9 +119,12 @@ class CylindricalField(EulerianField):
             self.mass_tiny, self._force_factors,
         )  # fmt: skip
 
+    def tie_nodes(self, a: np.ndarray) -> None:
+        if self._tied:
+            follow_masters(a, self._node_factors)
+
     def _after_contact(self) -> None:
-        if self._tied:  # (the contact set the independent nodes: the slaved follow them)
-            follow_masters(self.v, self._node_factors)
+        self.tie_nodes(self.v)
 
     def cell_pass(self, dt: float, phase: int = 0) -> tuple[float, int]:
         """The non-local factors (a model with a length) and :func:`geocel.euler.cylindrical.update_cells_cyl`."""

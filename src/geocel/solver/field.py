@@ -324,6 +324,9 @@ class EulerianField:
         the remap's activity mask and scratch."""
         g = self.grid
         shape = tuple(g.shape)
+        #: the nodes a multi-rate step keeps at level 0: the first ``level0_nodes[0]`` node columns from the row
+        #: ``level0_nodes[1]`` up (set by a pile's contact: the nodes it projects)
+        self.level0_nodes = np.zeros(2, dtype=np.int64)
         self.nstate = len(self.material.state_names)
         self.volume = np.ascontiguousarray(g.cell_volumes())
         self.Vs = np.zeros(shape)
@@ -487,6 +490,10 @@ class EulerianField:
         tm["cells"] += t2 - t1
         tm["remap"] += t3 - t2
         tm["bookkeeping"] += t4 - t3
+
+    def tie_nodes(self, a: np.ndarray) -> None:
+        """Set the slaved nodes of the node vectors ``a`` (velocities, displacements) from their masters: the
+        cylindrical layout's tied sectors; no other grid has slaved nodes."""
 
     def _after_contact(self) -> None:
         """After the contact changed the trial velocities (the cylindrical layout's slaved nodes follow)."""
