@@ -497,6 +497,27 @@ class Output(_Table):
         "only; a crash or kill -9 then loses at most this much work), s",
     )
     directory: str | None = Field(None, min_length=1, description="run directory (None: the runner decides)")
+    profiles_every: float | None = Field(
+        None,
+        gt=0.0,
+        description="installation profiles (stresses, e, intergranular strain on the shaft and at profile_radii, "
+        "against depth and h/R: profiles.csv, .parquet, .png) every Δ penetration; the ring geometries (r–z, the "
+        "cylindrical layout); None: none, m",
+    )
+    profile_radii: list[float] = Field(
+        [1.0, 2.0, 5.0],
+        min_length=1,
+        description="distances from the pile's axis of the soil's installation profiles, in pile radii (≥ 1; 1: the "
+        "soil next to the shaft), -",
+    )
+
+    @field_validator("profile_radii")
+    @classmethod
+    def _radii_outside_the_pile(cls, v: list[float]) -> list[float]:
+        bad = [r for r in v if not r >= 1.0]
+        if bad:
+            raise ValueError(f"{bad}: each must be ≥ 1 (pile radii from the axis; 1 is the shaft)")
+        return v
 
 
 class Reference(_Table):
@@ -633,9 +654,12 @@ class Scenario(_Table):
                 self.solver.multirate_levels,
                 'an option of symmetry = "axisymmetric" (the 3D kernels have no levels yet)',
             )
+        if self.output.profiles_every is not None and self.pile is None:
+            raise _invalid(("output", "profiles_every"), self.output.profiles_every, "the profiles need a [pile]")
         if self.pile is not None:
             self._check_pile_geometry()
-            if self.domain.symmetry == "axisymmetric" or self.domain.layout == "cylindrical":
+            ring = self.domain.symmetry == "axisymmetric" or self.domain.layout == "cylindrical"
+            if ring:
                 self._check_axisymmetric_pile()
             elif self.contact.rim != "base":
                 raise _invalid(
@@ -651,6 +675,13 @@ class Scenario(_Table):
                     raise _invalid(
                         ("contact", "formulation"), self.contact.formulation, 'the cylindrical layout has "band" only'
                     )
+            if self.output.profiles_every is not None and not ring:
+                raise _invalid(
+                    ("output", "profiles_every"),
+                    self.output.profiles_every,
+                    'the installation profiles need a ring geometry (symmetry = "axisymmetric" or layout = '
+                    f'"cylindrical"); this scenario runs on the Cartesian layout "{self.domain.layout}"',
+                )
             if self.contact.rim == "corner" and self.domain.frame != "pile":
                 raise _invalid(("contact", "rim"), "corner", 'needs [domain] frame = "pile"')
             if self.contact.friction is None and isinstance(self.soil.material, Elastic):

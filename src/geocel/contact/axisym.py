@@ -638,7 +638,7 @@ class AxisymmetricPileContact:
     _zc = 1
 
     @staticmethod
-    def _lines(a: np.ndarray) -> np.ndarray:
+    def lines(a: np.ndarray) -> np.ndarray:
         """A node or cell array with the axis of node lines θ_j (r–z: one line) after the radial one."""
         return a[:, None]
 
@@ -786,12 +786,12 @@ class AxisymmetricPileContact:
         # a fixed grid the base reaches the next row within a cycle)
         f.level0_nodes[0] = self.ia + 1
         f.level0_nodes[1] = kc - 1
-        v = self._lines(f.v)
+        v = self.lines(f.v)
         if self._v_ring is not None:  # the nodal pass works on the corner ring's mean velocities
             v[self.ia, :, kc, 0] = self._v_ring[:, 0]
             v[self.ia, :, kc, self._zc] = self._v_ring[:, 1]
             self._v_ring = None
-        self._lines(self._v_old)[:, :, kc:] = v[: self.ia + 1, :, kc:]
+        self.lines(self._v_old)[:, :, kc:] = v[: self.ia + 1, :, kc:]
 
     def apply(self, dt: float) -> None:
         """Project the trial velocities (in place) and record the forces and the work of the step."""
@@ -825,7 +825,7 @@ class AxisymmetricPileContact:
             # the cells and the mesh motion see (v_r^A, v_z^out) at the ring's nodes; the cells left of it v_z^in,
             # the cells beside the shaft v_r^B (the field's split_*)
             c = self._corner_lines
-            ring = self._lines(f.v)[ia, :, kc]
+            ring = self.lines(f.v)[ia, :, kc]
             self._v_ring = ring[:, self._rz]  # (a copy)
             ring[:, 0] = c[:, 3] - c[:, 1]
             ring[:, self._zc] = c[:, 2] + c[:, 0]
@@ -858,7 +858,7 @@ class AxisymmetricPileContact:
         lowest level; the tied soil mass: a shaft node that sticks (|f_t| < μ f_n), a base or interior node
         whose vertical velocity the base changed. Per node row, the ring's sums over its node lines."""
         f = self.field
-        ia, zc, L = self.ia, self._zc, self._lines
+        ia, zc, L = self.ia, self._zc, self.lines
         corner, corner_mass = -1, self._no_corner_mass
         if self.rim == "corner":  # the ring's outer half: a quarter of each of its cells
             m = L(f.mass)
@@ -898,7 +898,7 @@ class AxisymmetricPileContact:
         ia, kc, zc = self.ia, self.base_row(), self._zc
         self._z_remap = self.z_base_grid
         corner = self.rim == "corner"
-        u = self._lines(displacement)
+        u = self.lines(displacement)
         col = u[ia, :, kc + 1 if corner else kc :, 0]  # (the corner's radial motion A is under the base)
         neg = col < 0.0
         if neg.any():
@@ -911,7 +911,7 @@ class AxisymmetricPileContact:
         # (in the pile's frame the base lies on row kc: no cell is cut by it, the shaft node above the corner
         # is a shaft node like the others, and clamping it would stretch the cell above it in the remap)
         up[ia, :, 0 if self._z_frame is not None else 1 :] = 0.0
-        pos = (up > 0.0) & (self._lines(self.field.nmass)[: ia + 1, :, kc + 1 :] > self.field.mass_tiny)
+        pos = (up > 0.0) & (self.lines(self.field.nmass)[: ia + 1, :, kc + 1 :] > self.field.mass_tiny)
         if pos.any():
             self.clamped_motion += float(up[pos].sum())
             u[: ia + 1, :, kc + 1 :, zc] -= np.where(pos, up, 0.0)
@@ -933,7 +933,7 @@ class AxisymmetricPileContact:
             self._u_in[:] = 0.0
             self._u_B[:] = 0.0
             if self._v_ring is not None:  # the remap carries the nodes' momentum
-                v = self._lines(f.v)
+                v = self.lines(f.v)
                 v[ia, :, kc, 0] = self._v_ring[:, 0]
                 v[ia, :, kc, zc] = self._v_ring[:, 1]
                 self._v_ring = None

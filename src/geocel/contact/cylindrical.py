@@ -346,7 +346,7 @@ class CylindricalPileContact(AxisymmetricPileContact):
     _zc = 2
 
     @staticmethod
-    def _lines(a: np.ndarray) -> np.ndarray:
+    def lines(a: np.ndarray) -> np.ndarray:
         return a
 
     def __init__(

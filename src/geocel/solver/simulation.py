@@ -40,6 +40,7 @@ from ..materials import flags as fl
 from .backend import Backend, build_backend
 from .field import InstabilityError
 from .output import AnyOf, Callback, PenetrationInterval, Schedule, TimeInterval
+from .profiles import ProfilesOutput
 from .quasi_static import inertia_verdict as _inertia_verdict
 from .quasi_static import verdict as _verdict
 from .writers import (  # noqa: F401  (HISTORY_*, history_preamble: re-exported, they were defined here)
@@ -184,6 +185,8 @@ class Simulation:
             ProgressOutput(),
             CheckpointOutput(self.checkpoint_every, self.checkpoint_seconds),
         ]
+        if o.profiles_every is not None and self.has_pile:
+            self.callbacks.append(ProfilesOutput(PenetrationInterval(o.profiles_every), o.profile_radii))
         for cb in callbacks:
             self.add_callback(cb)
 

@@ -229,22 +229,43 @@ def _pile_soil(material, radius, cells_per_radius, void_height, k0=0.5, e0=0.65,
     return f
 
 
-def pile_at_rest(cells_per_radius: int = 4, radius: float = 0.3, depth: float = 0.6, k0: float = 0.5) -> dict:
-    """A rigid pile wished in place to about ``depth`` m in elastic soil at K0 under gravity and held, in the
-    default set-up (the pile's frame, the split corner): returns the soil's largest speed (m/s), the normal
-    stress on each shaft node over K0 σ'_v (``shaft_ratio``) and q_b over σ'_v at the base (``base_ratio``)."""
+def pile_held_in_place(
+    cells_per_radius: int = 4, radius: float = 0.3, depth: float = 0.6, k0: float = 0.5, n_theta: int = 0, steps=200
+):
+    """A rigid pile wished in place to about ``depth`` m in elastic soil at K0 under gravity and held ``steps`` steps,
+    in the default set-up (the pile's frame, the split corner): r–z, or with ``n_theta`` > 0 the cylindrical layout
+    (a quarter in that many sectors). Returns the field and the contact."""
     from ..config.materials import Elastic
     from ..contact.axisym import AxisymmetricPileContact, RigidPileRZ
 
     f = _pile_soil(Elastic(youngs_modulus=20e6, poisson_ratio=0.3), radius, cells_per_radius, 1.0, k0,
                    remap_courant=0.0)  # fmt: skip
+    contact = AxisymmetricPileContact
+    if n_theta > 0:
+        from ..contact.cylindrical import CylindricalPileContact
+        from ..grid.cylindrical import CylindricalGrid
+        from ..solver.cylindrical_field import CylindricalField
+
+        cyl = CylindricalField(CylindricalGrid.from_axisymmetric(f.grid, n_theta), f.material, settings=f.settings)
+        cyl.fill_below(0.0)
+        cyl.geostatic([(0.0, 0.65)], k0=k0)
+        f, contact = cyl, CylindricalPileContact
     g = f.grid
     zb = float(g.z[np.argmin(np.abs(g.z + depth))])
-    c = AxisymmetricPileContact(f, RigidPileRZ(radius, zb), friction=0.4, rim="corner")
+    c = contact(f, RigidPileRZ(radius, zb), friction=0.4, rim="corner")
     c.wish_in_place()
     c.follow_pile()
-    for _ in range(200):
+    for _ in range(steps):
         c.step(0.0)
+    return f, c
+
+
+def pile_at_rest(cells_per_radius: int = 4, radius: float = 0.3, depth: float = 0.6, k0: float = 0.5) -> dict:
+    """The pile of :func:`pile_held_in_place` in r–z: returns the soil's largest speed (m/s), the normal stress on
+    each shaft node over K0 σ'_v (``shaft_ratio``) and q_b over σ'_v at the base (``base_ratio``)."""
+    f, c = pile_held_in_place(cells_per_radius, radius, depth, k0)
+    g = f.grid
+    zb = c.z_base
     gamma = f.material.grain_density / 1.65 * f.gravity
     shaft = (g.z < -1e-9) & (np.arange(g.nz + 1) > c.base_row())
     return {
