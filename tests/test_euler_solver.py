@@ -13,7 +13,15 @@ from geocel.euler.remap import remap
 from geocel.grid import Grid
 from geocel.materials.kernels import model_tag
 from geocel.materials.tensor import invariants_pq, vec_to_mat
-from geocel.solver.field import SoilField, SolverSettings, accumulate_displacement, node_spacing
+from geocel.solver.field import (
+    SoilField,
+    SolverSettings,
+    accumulate_displacement,
+    accumulate_parallel,
+    accumulate_serial,
+    node_spacing,
+    reciprocal_spacings,
+)
 from geocel.solver.simulation import Simulation
 
 G = 9.81
@@ -56,11 +64,22 @@ def test_accumulated_displacement_and_the_courant_number_of_the_pending_remap():
     v[...] = (1.0, -2.0, 0.5)
     v[3, :, :, 0] = 3.0  # the node beside the largest cell: 3 m/s over 0.4 m is slower than 1 m/s over 0.1 m
     u = np.zeros_like(v)
-    r = [1.0 / node_spacing(h)] * 3
+    R = reciprocal_spacings((1.0 / node_spacing(h),) * 3, (0, 1, 2), v.shape)
     for n in range(1, 8):
-        c = accumulate_displacement(*r, v, 0.01, u, 0.0)
+        c = accumulate_displacement(R, v, 0.01, u, 0.0)
         np.testing.assert_allclose(u, n * 0.01 * v, rtol=1e-14)
         assert c == pytest.approx(n * 0.01 * 2.0 / 0.1, rel=1e-14)  # |u_y| at the 0.1 m spacing
+    # the grid's own velocity (the pile's frame) is taken off the vertical component only; the parallel blocks
+    # give the serial result
+    rng = np.random.default_rng(1)
+    v, u0 = rng.normal(size=(2, 4 * 4 * 4, 3))
+    R = rng.uniform(1.0, 10.0, size=v.shape)
+    us, up = u0.copy(), u0.copy()
+    cs = accumulate_serial(R, v, 0.01, us, 0.3)
+    cp = accumulate_parallel(R, v, 0.01, up, 0.3, 7)
+    np.testing.assert_array_equal(us, up)
+    assert cs == cp == np.abs(us * R).max()
+    np.testing.assert_allclose(us - u0, 0.01 * (v - [0.0, 0.0, 0.3]), rtol=1e-12, atol=1e-15)
 
 
 def test_mgs_initial_stress_identical_and_time_step_grows_with_sqrt_s():

@@ -19,8 +19,40 @@ import numpy as np
 from .graded import graded_edges, graded_z
 
 
+class RingAxes:
+    """The node radii ``r`` (from the axis) and elevations ``z`` of a grid round the z axis (r–z and the cylindrical
+    layout), and what follows from them (m)."""
+
+    r: np.ndarray  # (the grids' dataclass fields)
+    z: np.ndarray
+
+    @property
+    def nr(self) -> int:
+        return self.r.size - 1
+
+    @property
+    def nz(self) -> int:
+        return self.z.size - 1
+
+    @property
+    def hr(self) -> np.ndarray:
+        return np.diff(self.r)
+
+    @property
+    def hz(self) -> np.ndarray:
+        return np.diff(self.z)
+
+    @property
+    def rc(self) -> np.ndarray:
+        return 0.5 * (self.r[1:] + self.r[:-1])
+
+    @property
+    def zc(self) -> np.ndarray:
+        return 0.5 * (self.z[1:] + self.z[:-1])
+
+
 @dataclass
-class AxisymmetricGrid:
+class AxisymmetricGrid(RingAxes):
     """Node coordinates r (nr+1) and z (nz+1) of a tensor-product grid in the r–z half-plane, r[0] = 0."""
 
     r: np.ndarray
@@ -68,30 +100,6 @@ class AxisymmetricGrid:
     @property
     def shape(self) -> tuple[int, int]:
         return (self.nr, self.nz)
-
-    @property
-    def nr(self) -> int:
-        return self.r.size - 1
-
-    @property
-    def nz(self) -> int:
-        return self.z.size - 1
-
-    @property
-    def hr(self) -> np.ndarray:
-        return np.diff(self.r)
-
-    @property
-    def hz(self) -> np.ndarray:
-        return np.diff(self.z)
-
-    @property
-    def rc(self) -> np.ndarray:
-        return 0.5 * (self.r[1:] + self.r[:-1])
-
-    @property
-    def zc(self) -> np.ndarray:
-        return 0.5 * (self.z[1:] + self.z[:-1])
 
     @property
     def n_cells(self) -> int:

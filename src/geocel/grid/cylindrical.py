@@ -27,14 +27,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .axisym import AxisymmetricGrid
+from .axisym import AxisymmetricGrid, RingAxes
 
 #: the model's angle per ``extent`` (rad): the symmetry planes are θ = 0 and θ = this
 EXTENTS = {"quarter": 0.5 * math.pi, "half": math.pi}
 
 
 @dataclass
-class CylindricalGrid:
+class CylindricalGrid(RingAxes):
     """Node coordinates r (nr+1, r[0] = 0), θ (nθ+1, uniform from 0 to the extent's angle) and z (nz+1)."""
 
     r: np.ndarray
@@ -95,16 +95,8 @@ class CylindricalGrid:
 
     # --- geometry --------------------------------------------------------------------------------------------
     @property
-    def nr(self) -> int:
-        return self.r.size - 1
-
-    @property
     def ntheta(self) -> int:
         return self.theta.size - 1
-
-    @property
-    def nz(self) -> int:
-        return self.z.size - 1
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -131,22 +123,6 @@ class CylindricalGrid:
         arcs = self.rc * self.ties * self.dtheta
         arcs[0] = self.r[1] * self.ties[0] * self.dtheta
         return arcs
-
-    @property
-    def hr(self) -> np.ndarray:
-        return np.diff(self.r)
-
-    @property
-    def hz(self) -> np.ndarray:
-        return np.diff(self.z)
-
-    @property
-    def rc(self) -> np.ndarray:
-        return 0.5 * (self.r[1:] + self.r[:-1])
-
-    @property
-    def zc(self) -> np.ndarray:
-        return 0.5 * (self.z[1:] + self.z[:-1])
 
     @property
     def dtheta(self) -> float:

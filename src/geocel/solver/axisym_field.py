@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import get_num_threads, njit
+from numba import get_num_threads
 
 from ..euler.axisym import (
     FORCE_FACTORS_RZ,
@@ -30,7 +30,6 @@ from ..euler.axisym import (
 from ..euler.axisym_remap import remap_rz
 from ..euler.lagrange import PHI_MIN
 from ..grid.axisym import AxisymmetricGrid
-from ..materials.tensor import KERNEL_OPTIONS
 from .field import (
     E_MAX,
     E_MIN,
@@ -39,23 +38,6 @@ from .field import (
     SolverSettings,
     node_spacing,
 )
-
-
-@njit(**KERNEL_OPTIONS)
-def _accumulate_rz(rr, rz, v, dt, u, wz):
-    """u ← u + (v − w) Δt at every node, w = (0, ``wz``) the grid's own velocity (the pile's frame; 0 for a
-    fixed grid); returns the largest |u_d|/spacing (the pending remap's Courant number).
-    Serial: a few flops per node, less than what a parallel region costs to start on busy cores."""
-    n1, n2, _ = v.shape
-    c = 0.0
-    for i in range(n1):
-        for k in range(n2):
-            a = u[i, k, 0] + dt * v[i, k, 0]
-            b = u[i, k, 1] + dt * (v[i, k, 1] - wz)
-            u[i, k, 0] = a
-            u[i, k, 1] = b
-            c = max(c, abs(a) * rr[i], abs(b) * rz[k])
-    return c
 
 
 def _trailing_zeros(phase: int, levels: int) -> int:
@@ -162,9 +144,6 @@ class AxisymmetricField(EulerianField):
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength, self._max_substep,
             self.nonlocal_factor, nonlocal_, get_num_threads(), self.split, self.cell_level, phase, self.cell_dt,
         )  # fmt: skip
-
-    def _accumulate(self, dt: float, wz: float) -> float:
-        return _accumulate_rz(self._node_reciprocal[0], self._node_reciprocal[1], self.v, dt, self.u_remap, wz)
 
     def _remap_kernel(self, dt: float, order: int, displacement: np.ndarray) -> tuple[float, float]:
         return remap_rz(

@@ -32,25 +32,6 @@ from .field import E_MAX, E_MIN, EulerianField, Material, SolverSettings, node_s
 
 
 @njit(**KERNEL_OPTIONS)
-def _accumulate_cyl(rr, rt, rz, v, dt, u, wz):
-    """u ← u + (v − w) Δt at every node, w = (0, 0, ``wz``) the grid's own velocity (the pile's frame; 0 for a
-    fixed grid); returns the largest |u_d| / spacing (the pending remap's Courant number)."""
-    n1, n2, n3, _ = v.shape
-    c = 0.0
-    for i in range(n1):
-        for j in range(n2):
-            for k in range(n3):
-                a = u[i, j, k, 0] + dt * v[i, j, k, 0]
-                b = u[i, j, k, 1] + dt * v[i, j, k, 1]
-                w = u[i, j, k, 2] + dt * (v[i, j, k, 2] - wz)
-                u[i, j, k, 0] = a
-                u[i, j, k, 1] = b
-                u[i, j, k, 2] = w
-                c = max(c, abs(a) * rr[i], abs(b) * rt[i], abs(w) * rz[k])
-    return c
-
-
-@njit(**KERNEL_OPTIONS)
 def _kinetic_energy_cyl(nmass, v):
     """½ Σ m |v|² over the nodes, the axis node once (J)."""
     n1, n2, n3 = nmass.shape
@@ -143,9 +124,6 @@ class CylindricalField(EulerianField):
             self._max_substep, self.split_ring[0], self.split_ring[1], self.split_z, self.split_r,
             self.nonlocal_factor, nonlocal_,
         )  # fmt: skip
-
-    def _accumulate(self, dt: float, wz: float) -> float:
-        return _accumulate_cyl(*self._node_reciprocal, self.v, dt, self.u_remap, wz)
 
     def _remap_kernel(self, dt: float, order: int, displacement: np.ndarray) -> tuple[float, float]:
         return remap_cyl(

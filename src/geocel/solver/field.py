@@ -14,7 +14,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit, prange
+from numba import get_num_threads, njit, prange
 
 from ..config.materials import Elastic, Hypoplastic, MohrCoulomb, Tresca
 from ..euler.lagrange import (
@@ -114,29 +114,66 @@ def node_spacing(h: np.ndarray) -> np.ndarray:
     return np.minimum(np.r_[h[0], h], np.r_[h, h[-1]])
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def _accumulate_nodes(R, v, dt, u, wz, lo, hi):
+    """u ← u + (v − w) Δt at the nodes lo … hi − 1, w = (0, …, ``wz``) the grid's own velocity (the pile's frame; 0
+    for a fixed grid), the node arrays flat (nodes, components) in any geometry. Returns their largest |u_d| R_d,
+    with R_d the node's reciprocal spacing in direction d (:func:`node_spacing`): the pending remap's Courant
+    number."""
+    d = u.shape[1]
+    c = 0.0
+    for i in range(lo, hi):
+        for k in range(d):
+            x = u[i, k] + dt * (v[i, k] - (wz if k == d - 1 else 0.0))
+            u[i, k] = x
+            c = max(c, abs(x) * R[i, k])
+    return c
+
+
+@njit(**KERNEL_OPTIONS)
+def accumulate_serial(R, v, dt, u, wz):
+    """:func:`_accumulate_nodes` over all nodes (a few flops per node: on a small grid less than a parallel region
+    costs to start)."""
+    return _accumulate_nodes(R, v, dt, u, wz, 0, u.shape[0])
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
-def accumulate_displacement(rx, ry, rz, v, dt, u, wz):
-    """u ← u + (v − w) Δt at every node, w = (0, 0, ``wz``) the grid's own velocity (the pile's frame; 0 for
-    a fixed grid). Returns the largest |u_d| r_d over the nodes and directions, with r_d the
-    reciprocal node spacing (:func:`node_spacing`): the Courant number of the pending remap."""
-    n1, n2, n3, _ = v.shape
-    cmax = np.empty(n1)  # (np.empty: np.zeros and .max() would be parallel loops of their own, one element per chunk)
-    for i in prange(n1):
-        c = 0.0
-        for j in range(n2):
-            for k in range(n3):
-                ux = u[i, j, k, 0] + dt * v[i, j, k, 0]
-                uy = u[i, j, k, 1] + dt * v[i, j, k, 1]
-                uz = u[i, j, k, 2] + dt * (v[i, j, k, 2] - wz)
-                u[i, j, k, 0] = ux
-                u[i, j, k, 1] = uy
-                u[i, j, k, 2] = uz
-                c = max(c, abs(ux) * rx[i], abs(uy) * ry[j], abs(uz) * rz[k])
-        cmax[i] = c
+def accumulate_parallel(R, v, dt, u, wz, nblocks):
+    """:func:`_accumulate_nodes` over all nodes in ``nblocks`` blocks in parallel."""
+    n = u.shape[0]
+    size = (n + nblocks - 1) // nblocks
+    cmax = np.empty(nblocks)  # (np.empty: np.zeros and .max() would be parallel loops of their own)
+    for b in prange(nblocks):
+        cmax[b] = _accumulate_nodes(R, v, dt, u, wz, b * size, min(n, (b + 1) * size))
     m = 0.0
-    for i in range(n1):
-        m = max(m, cmax[i])
+    for b in range(nblocks):
+        m = max(m, cmax[b])
     return m
+
+
+#: node components from which the accumulation runs in parallel
+PARALLEL_ACCUMULATION = 200_000
+
+
+def reciprocal_spacings(reciprocals: tuple, axes: tuple[int, ...], node_shape: tuple[int, ...]) -> np.ndarray:
+    """Per node and component, the reciprocal spacing (nodes, components): ``reciprocals[d]`` runs along the node
+    array's axis ``axes[d]``."""
+    out = np.empty(node_shape)
+    for d, rec in enumerate(reciprocals):
+        shape = [1] * (len(node_shape) - 1)
+        shape[axes[d]] = -1
+        out[..., d] = rec.reshape(shape)
+    return out.reshape(-1, node_shape[-1])
+
+
+def accumulate_displacement(R: np.ndarray, v: np.ndarray, dt: float, u: np.ndarray, wz: float) -> float:
+    """The pending displacements and Courant number (:func:`_accumulate_nodes`) of the node arrays ``v``, ``u`` (any
+    shape, components last; C-contiguous) with the reciprocal spacings ``R`` of :func:`reciprocal_spacings`."""
+    d = u.shape[-1]
+    vf, uf = v.reshape(-1, d), u.reshape(-1, d)
+    if u.size < PARALLEL_ACCUMULATION:
+        return accumulate_serial(R, vf, dt, uf, wz)
+    return accumulate_parallel(R, vf, dt, uf, wz, 4 * get_num_threads())
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -190,7 +227,7 @@ class EulerianField:
     pile's frame. A geometry (:class:`SoilField` on the Cartesian grids, :class:`~geocel.solver.axisym_field.
     AxisymmetricField` in r–z, :class:`~geocel.solver.cylindrical_field.CylindricalField`) holds its arrays (cells
     (…, n_z[, k]) with z last, nodes (…, n_z + 1, d)) and supplies only what differs: its kernels
-    (:meth:`nodal_pass`, :meth:`cell_pass`, :meth:`_accumulate`, :meth:`_remap_kernel`, :meth:`_lump_node_masses`,
+    (:meth:`nodal_pass`, :meth:`cell_pass`, :meth:`_remap_kernel`, :meth:`_lump_node_masses`,
     :meth:`_lump_bottom_rows`), its cells' lengths ``_cell_lengths`` for Δt and its coordinates
     (:meth:`_cell_axes`, :meth:`_node_axes`). Extensive quantities are the modelled part's (per radian in r–z)."""
 
@@ -346,6 +383,7 @@ class EulerianField:
         #: node displacements since the last remap (m), when the remap is deferred (``remap_courant`` > 0)
         self.u_remap = np.zeros(node_shape)
         self._node_reciprocal = reciprocals
+        self._reciprocal_flat: np.ndarray | None = None  # (pending_courant, once the geometry set its axes)
         self._cell_lengths = cell_lengths
         #: the non-local factors max(1, ‖D‖*/‖D‖) of the last step (1 for a local soil model) and their scratch
         self.nonlocal_factor = np.ones(shape)
@@ -509,7 +547,9 @@ class EulerianField:
             self.u_remap[...] = 0.0
         wz = self.frame_velocity
         self.frame_offset += wz * dt
-        return self._accumulate(dt, wz)
+        if self._reciprocal_flat is None:
+            self._reciprocal_flat = reciprocal_spacings(self._node_reciprocal, self._reciprocal_axes, self.v.shape)
+        return accumulate_displacement(self._reciprocal_flat, self.v, dt, self.u_remap, wz)
 
     def runaway(self) -> bool:
         """Whether a node with soil moved more than a cell since the last remap (:func:`runaway_nodes`)."""
@@ -740,9 +780,6 @@ class SoilField(EulerianField):
             self.nonlocal_factor,
             nonlocal_,
         )
-
-    def _accumulate(self, dt: float, wz: float) -> float:
-        return accumulate_displacement(*self._node_reciprocal, self.v, dt, self.u_remap, wz)
 
     def _remap_kernel(self, dt: float, order: int, displacement: np.ndarray) -> tuple[float, float]:
         return remap(
