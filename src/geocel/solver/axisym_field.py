@@ -10,7 +10,7 @@ Node arrays are (nr+1, nz+1[, 2]) with components (r, z); cell arrays (nr, nz[, 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numba import get_num_threads
@@ -33,9 +33,7 @@ from ..grid.axisym import AxisymmetricGrid
 from .field import (
     E_MAX,
     E_MIN,
-    EulerianField,
-    Material,
-    SolverSettings,
+    GridField,
     node_spacing,
 )
 
@@ -48,19 +46,11 @@ def _trailing_zeros(phase: int, levels: int) -> int:
 
 
 @dataclass
-class AxisymmetricField(EulerianField):
-    """Soil in the r–z plane on an :class:`~geocel.grid.axisym.AxisymmetricGrid`.
-
-    ``damping`` α (1/s): mass-proportional damping −α m v for quasi-static checks (dynamic relaxation), 0 in a
-    physical run. ``external_force`` (N/rad per node, (r, z)) is applied every step; nodes with ``fix`` set
-    take the velocity ``prescribed`` (m/s; zero by default: axis, roller, base) and their reaction is in
-    ``reaction`` (N/rad)."""
+class AxisymmetricField(GridField):
+    """Soil in the r–z plane on an :class:`~geocel.grid.axisym.AxisymmetricGrid` (:class:`GridField`; forces per
+    radian, components (r, z))."""
 
     grid: AxisymmetricGrid
-    material: Material
-    scaling: float = 1.0
-    settings: SolverSettings = field(default_factory=SolverSettings)
-    damping: float = 0.0
 
     def __post_init__(self) -> None:
         g = self.grid

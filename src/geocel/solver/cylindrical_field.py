@@ -10,7 +10,7 @@ The pile's contact is :mod:`geocel.contact.cylindrical`; the non-local sand's me
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
@@ -28,7 +28,7 @@ from ..euler.cylindrical_remap import remap_cyl, tensor_offsets
 from ..euler.lagrange import characteristic_length
 from ..grid.cylindrical import CylindricalGrid
 from ..materials.tensor import KERNEL_OPTIONS
-from .field import E_MAX, E_MIN, EulerianField, Material, SolverSettings, node_spacing
+from .field import E_MAX, E_MIN, GridField, node_spacing
 
 
 @njit(**KERNEL_OPTIONS)
@@ -44,19 +44,11 @@ def _kinetic_energy_cyl(nmass, v):
 
 
 @dataclass
-class CylindricalField(EulerianField):
-    """Soil on a :class:`~geocel.grid.cylindrical.CylindricalGrid`.
-
-    ``damping`` α (1/s): mass-proportional damping for quasi-static checks (0 in a physical run).
-    ``external_force`` (N per node, local (r, θ, z)) is applied every step; nodes with ``fix`` set take the
-    velocity ``prescribed`` (m/s; zero by default: axis, symmetry planes, roller, base) and their reaction is
-    in ``reaction`` (N)."""
+class CylindricalField(GridField):
+    """Soil on a :class:`~geocel.grid.cylindrical.CylindricalGrid` (:class:`GridField`; forces in N, local
+    components (r, θ, z))."""
 
     grid: CylindricalGrid
-    material: Material
-    scaling: float = 1.0
-    settings: SolverSettings = field(default_factory=SolverSettings)
-    damping: float = 0.0
 
     def __post_init__(self) -> None:
         g = self.grid

@@ -12,6 +12,7 @@ from __future__ import annotations
 import itertools
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numba import get_num_threads, njit, prange
@@ -693,7 +694,23 @@ class EulerianField:
 
 
 @dataclass
-class SoilField(EulerianField):
+class GridField(EulerianField):
+    """A soil field on one grid (``grid``, of the geometry's kind), of ``material`` at the MGS factor ``scaling``.
+
+    ``damping`` α (1/s): mass-proportional damping −α m v for quasi-static checks (dynamic relaxation), 0 in a
+    physical run. ``external_force`` (per node, in the grid's components) is applied every step; nodes with ``fix``
+    set take the velocity ``prescribed`` (m/s; zero by default: axis, walls, symmetry planes, roller, base) and
+    their reaction is in ``reaction`` (per radian in r–z)."""
+
+    grid: Any
+    material: Material
+    scaling: float = 1.0
+    settings: SolverSettings = field(default_factory=SolverSettings)
+    damping: float = 0.0
+
+
+@dataclass
+class SoilField(GridField):
     """Soil on a Cartesian :class:`~geocel.grid.Grid` (tensor product; a level of nested columns).
 
     ``damping`` α (1/s): mass-proportional damping −α m v for quasi-static checks (dynamic relaxation), 0 in a
@@ -703,10 +720,6 @@ class SoilField(EulerianField):
     without them: a composite has no damping or external forces.)"""
 
     grid: Grid
-    material: Material
-    scaling: float = 1.0
-    settings: SolverSettings = field(default_factory=SolverSettings)
-    damping: float = 0.0
 
     def __post_init__(self) -> None:
         g = self.grid
