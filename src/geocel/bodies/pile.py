@@ -288,7 +288,7 @@ class SolidPile(_MeshedPile):
         self._v_step = np.full((nl, 3), np.nan)
         self._v_prev = np.full((nl, 3), np.nan)
         self._x_step = np.zeros((nl, 3))
-        self._damper: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._damper: tuple[np.ndarray, np.ndarray] | None = None
 
     def surface(self) -> Surface:
         known = np.all(np.isfinite(self._v_step))
@@ -301,35 +301,33 @@ class SolidPile(_MeshedPile):
     # 1. the soil's nodes follow the pile's displacement over the soil step, not its velocity at the last
     #    substep (that velocity rings from step to step: 0.13 m/s per step at the base in the deeks-white demo
     #    at S = 1, 16 substeps, against 0.001 m/s for the coupled pile);
-    # 2. the soil that the projection ties to a level is not a held force but answers the level's velocity
-    #    within the step: f = G − (m_tied/Δt)(v − v_seen), the soil's linearised response (a node projected
-    #    to v ends the step with m Δv/Δt less force). G = F + m_tied a_seen is the held load without the
-    #    tied soil's inertia (F = G − m_tied a for the tied nodes, so over a step of constant acceleration
-    #    the pile receives F exactly). Held alone, F fed the tied soil's inertia back one step late, with a
-    #    gain ≈ m_tied / (the pile's mass that answers within one step): once that passed one (≈ 1.3 m
-    #    embedded in the demo) the base velocity jumped by 0.47 m/s and q_b by ± 5.2 MPa every step.
-    #    The damper is implicit in the substep (:meth:`SolidBody.step`), so it holds for any mass ratio.
-    #    ``benchmarks/staggered_coupling_1d.py`` shows both in one dimension.
+    # 2. the soil that the projection tied to a level also answers the level's velocity within the step: the
+    #    pile gets F − (m_tied/Δt)(v − v_seen), the soil's linearised response (a node projected to v ends the
+    #    step with m Δv/Δt less force), implicit in the substep (:meth:`SolidBody.step`), so it holds for any
+    #    mass ratio. Held alone, F fed the tied soil's inertia back one step late, with a gain ≈ m_tied / (the
+    #    pile's mass that answers within one step): once that passed one (≈ 1.3 m embedded in the demo) the
+    #    base velocity jumped by 0.47 m/s and q_b by ± 5.2 MPa every step. F is not corrected for the inertia
+    #    that the tied soil had in the last step (m_tied a_seen, from the levels' mean velocities): that
+    #    one-step-late derivative pumped the pile's axial modes (at S = 10 in the demo a 1.2 kHz mode, 7.7 soil
+    #    steps per period, grew from 1.7 m of penetration and broke the run at 2.1 m). Without it the tied
+    #    inertia acts over two steps, −m_tied (v^{n+1} − v^{n−1})/Δt: it damps, and the mean force is F's.
+    #    ``benchmarks/staggered_coupling_1d.py`` shows the three couplings in one dimension.
     def begin_step(self) -> None:
         self._x_step = self._layer_means(self.body.x)
         self._damper = self._interface_damper()
 
-    def _interface_damper(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """(G (n, 3) N, damping c (n, 3) N s/m, velocity v_seen (n, 3) m/s) on the surface nodes for the next
-        soil step, or None before two steps are known (see the comment above)."""
+    def _interface_damper(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(damping c (n, 3) N s/m, velocity v_seen (n, 3) m/s) on the surface nodes for the next soil step,
+        or None before two steps are known (see the comment above)."""
         ld = self.load
         if ld.tied is None or ld.dt <= 0.0 or not np.all(np.isfinite(self._v_prev)):
             return None
         lay = self.mesh.layer_of_node
-        a = (self._v_step[:, 2] - self._v_prev[:, 2]) / ld.dt
-        m_node = self._ws * ld.tied[lay, 0] + self._wb * ld.tied[:, 1].sum()
-        g = self.nodal_contact_forces().copy()
-        g[:, 2] += self._ws * ld.tied[lay, 0] * a[lay] + self._wb * float(ld.tied[:, 1] @ a)
-        c = np.zeros_like(g)
-        c[:, 2] = m_node / ld.dt
-        v_seen = np.zeros_like(g)
+        c = np.zeros((lay.shape[0], 3))
+        c[:, 2] = (self._ws * ld.tied[lay, 0] + self._wb * ld.tied[:, 1].sum()) / ld.dt
+        v_seen = np.zeros_like(c)
         v_seen[:, 2] = self._v_step[lay, 2]
-        return g, c, v_seen
+        return c, v_seen
 
     def end_step(self, dt: float) -> None:
         self._v_prev[...] = self._v_step
@@ -355,11 +353,8 @@ class SolidPile(_MeshedPile):
     def advance(self, dt: float, v_head: float) -> None:
         b = self.body
         pv = (self.head, (np.nan, np.nan, -v_head))
-        if self._damper is None:
-            b.step(dt, f_ext=self.nodal_contact_forces(), fixed=self.fixed, prescribed_velocity=pv)
-        else:
-            g, c, v_seen = self._damper
-            b.step(dt, f_ext=g, fixed=self.fixed, prescribed_velocity=pv, damper=(c, v_seen))
+        f = self.nodal_contact_forces()
+        b.step(dt, f_ext=f, fixed=self.fixed, prescribed_velocity=pv, damper=self._damper)
         # the jack force: what the elements exert on the head nodes (compression pushes them up)
         self.head_force = float(b._f[self.head, 2].sum())
         self.work += self.head_force * v_head * dt
