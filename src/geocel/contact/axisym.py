@@ -293,6 +293,81 @@ def _split_trial(m_a, m_b, mtiny, v_c_trial, v_b_old, a_b, dt):
     return ((m_a + m_b) * v_c_trial - m_b * v_b) / m_a, v_b
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def split_corner_node(
+    m_i, m_l, m_u, mtiny, vr_old, vz_old, vr_t, vz_t, fr, fz, frB, fzO, fix_r, fix_z, gravity, vp, vs_k, mu,
+    mu_b, dt, corner, out, cw,
+):  # fmt: skip
+    """The rule of a node split at the pile's corner (:func:`corner_rz`; the cylindrical layout's on each node
+    line): the four parts' velocities from the node's old and trial ones and the relative ones ``corner``
+    (w_z, w_r, updated; v_z^in, v_r^B received), Signorini and friction against the base and the shaft, the
+    forces on the pile into ``out`` as :func:`project_pile_rz`, and the energy corrections added to ``cw``
+    (6). ``fr``, ``fz``: the node's whole radial and vertical forces (stress, viscous, hourglass), ``frB``,
+    ``fzO``: those of the shaft's cell and of the outer cells. Returns the node's (v_r, v_z) and the
+    shaft's (f_n, f_t) on the soil."""
+    m_A = m_i + m_l
+    m_o = m_l + m_u
+    m = m_A + m_u
+    c = 1.0 / dt
+    # the four velocities before the nodal pass (from the node's and the relative ones) and their trials
+    zi_o, zo_o = _split_velocity(m_i, m_o, mtiny, vz_old, corner[0])
+    ra_o, rb_o = _split_velocity(m_A, m_u, mtiny, vr_old, corner[1])
+    az_o = (fzO[0] + fzO[1] + fzO[2]) / max(m_o, mtiny) - gravity
+    zi_t, zo_t = _split_trial(m_i, m_o, mtiny, vz_t, zo_o, az_o, dt)
+    ra_t, rb_t = _split_trial(m_A, m_u, mtiny, vr_t, rb_o, (frB[0] + frB[1] + frB[2]) / max(m_u, mtiny), dt)
+    # shaft: Signorini on v_r^B, Coulomb friction on v_z^out with v_r^B's normal impulse
+    drb = -rb_t if (rb_t < 0.0 and m_u > mtiny and not fix_r) else 0.0
+    dzo = 0.0
+    if drb > 0.0 and m_o > mtiny and not fix_z:
+        t = zo_t - vs_k
+        lim = mu * m_u * drb / m_o
+        dzo = -t if abs(t) <= lim else (-lim if t > 0.0 else lim)
+    # base: Signorini on v_z^in, friction μ_b on v_r^A with v_z^in's normal impulse
+    dzi = 0.0
+    if m_i > mtiny and zi_t > vp and not fix_z:
+        dzi = vp - zi_t
+    dra = 0.0
+    if dzi != 0.0 and not fix_r:
+        lim = mu_b * m_i * (-dzi) / m_A
+        dra = -ra_t if abs(ra_t) <= lim else (-lim if ra_t > 0.0 else lim)
+    zi = zi_t + dzi
+    zo = zo_t + dzo
+    ra = ra_t + dra
+    rb = rb_t + drb
+    vr = (m_A * ra + m_u * rb) / m
+    vz = (m_i * zi + m_o * zo) / m
+    corner[0] = zo - zi if (m_i > mtiny and m_o > mtiny) else 0.0
+    corner[1] = rb - ra if (m_A > mtiny and m_u > mtiny) else 0.0
+    corner[2] = zi
+    corner[3] = rb
+    # forces on the pile (of the impulses on the soil)
+    frb = m_A * dra * c
+    fzb = m_i * dzi * c
+    out[0] -= frb
+    out[1] -= fzb
+    out[4] += fzb * vp
+    f_n = m_u * drb * c
+    f_t = m_o * dzo * c
+    out[2] -= f_n
+    out[3] -= f_t
+    out[4] += f_t * vs_k
+    out[5] += (1.0 if dzi != 0.0 else 0.0) + (1.0 if drb > 0.0 else 0.0)
+    # energy: the nodal pass counted the node's mean velocity (v_old + v_trial)/2 with its whole force
+    ar = 0.5 * (vr_old + vr_t)
+    az = 0.5 * (vz_old + vz_t)
+    bA = 0.5 * (ra_o + ra)
+    bB = 0.5 * (rb_o + rb)
+    bi = 0.5 * (zi_o + zi)
+    bo = 0.5 * (zo_o + zo)
+    for d in range(3):
+        true = (fr[d] - frB[d]) * bA + frB[d] * bB + (fz[d] - fzO[d]) * bi + fzO[d] * bo
+        cw[d] -= dt * (true - fr[d] * ar - fz[d] * az)
+    cw[3] -= gravity * dt * (m_i * bi + m_o * bo - m * az)
+    cw[4] += m_A * dra * bA + m_u * drb * bB + m_i * dzi * bi + m_o * dzo * bo
+    cw[5] += 0.5 * (m_A * bA * bA + m_u * bB * bB + m_i * bi * bi + m_o * bo * bo) - 0.5 * m * (ar * ar + az * az)
+    return vr, vz, f_n, f_t
+
+
 @njit(**KERNEL_OPTIONS)
 def corner_rz(
     ia, kc, hr, hz, rc, Vs, mass, stress, q, hg, v, v_old, fix, mtiny, gravity, vp, vs_k, mu, mu_b, dt, corner, fn,
@@ -317,10 +392,7 @@ def corner_rz(
     m_i = 0.25 * mass[ia - 1, kc - 1]  # under the base's edge (the cell above it is the pile's)
     m_l = 0.25 * mass[ia, kc - 1]  # beside it, below the base's level
     m_u = 0.25 * mass[ia, kc]  # beside the shaft
-    m_A = m_i + m_l
-    m_o = m_l + m_u
-    m = m_A + m_u
-    if m <= mtiny:
+    if m_i + m_l + m_u <= mtiny:
         return
     gr_ = 0.5 / hr
     gz_ = 0.5 / hz
@@ -347,72 +419,15 @@ def corner_rz(
             frs = -vsc * (stress[ia, ck, 0] * gr + stress[ia, ck, 4] * gz + stress[ia, ck, 1] * nr_[ia])
             frq = pq * (gr + nr_[ia])
             frh = eta * mass[ia, ck] * hg[ia, ck, 0]
-    c = 1.0 / dt
-    vr_t = v[ia, kc, 0]
-    vz_t = v[ia, kc, 1]
-    # the four velocities before the nodal pass (from the node's and the relative ones) and their trials
-    zi_o, zo_o = _split_velocity(m_i, m_o, mtiny, v_old[ia, kc, 1], corner[0])
-    ra_o, rb_o = _split_velocity(m_A, m_u, mtiny, v_old[ia, kc, 0], corner[1])
-    zi_t, zo_t = _split_trial(m_i, m_o, mtiny, vz_t, zo_o, (fzs + fzq + fzh) / max(m_o, mtiny) - gravity, dt)
-    ra_t, rb_t = _split_trial(m_A, m_u, mtiny, vr_t, rb_o, (frs + frq + frh) / max(m_u, mtiny), dt)
-    # shaft: Signorini on v_r^B, Coulomb friction on v_z^out with v_r^B's normal impulse
-    drb = -rb_t if (rb_t < 0.0 and m_u > mtiny and not fix[ia, kc, 0]) else 0.0
-    dzo = 0.0
-    if drb > 0.0 and m_o > mtiny and not fix[ia, kc, 1]:
-        t = zo_t - vs_k
-        lim = mu * m_u * drb / m_o
-        dzo = -t if abs(t) <= lim else (-lim if t > 0.0 else lim)
-    # base: Signorini on v_z^in, friction μ_b on v_r^A with v_z^in's normal impulse
-    dzi = 0.0
-    if m_i > mtiny and zi_t > vp and not fix[ia, kc, 1]:
-        dzi = vp - zi_t
-    dra = 0.0
-    if dzi != 0.0 and not fix[ia, kc, 0]:
-        lim = mu_b * m_i * (-dzi) / m_A
-        dra = -ra_t if abs(ra_t) <= lim else (-lim if ra_t > 0.0 else lim)
-    zi = zi_t + dzi
-    zo = zo_t + dzo
-    ra = ra_t + dra
-    rb = rb_t + drb
-    vr = (m_A * ra + m_u * rb) / m
-    vz = (m_i * zi + m_o * zo) / m
+    vr, vz, f_n, f_t = split_corner_node(
+        m_i, m_l, m_u, mtiny, v_old[ia, kc, 0], v_old[ia, kc, 1], v[ia, kc, 0], v[ia, kc, 1], (fs[0], fq[0], fh[0]),
+        (fs[1], fq[1], fh[1]), (frs, frq, frh), (fzs, fzq, fzh), fix[ia, kc, 0], fix[ia, kc, 1], gravity, vp, vs_k,
+        mu, mu_b, dt, corner, out, cw,
+    )  # fmt: skip
     v[ia, kc, 0] = vr
     v[ia, kc, 1] = vz
-    corner[0] = zo - zi if (m_i > mtiny and m_o > mtiny) else 0.0
-    corner[1] = rb - ra if (m_A > mtiny and m_u > mtiny) else 0.0
-    corner[2] = zi
-    corner[3] = rb
-    # forces on the pile (of the impulses on the soil)
-    frb = m_A * dra * c
-    fzb = m_i * dzi * c
-    out[0] -= frb
-    out[1] -= fzb
-    out[4] += fzb * vp
-    f_n = m_u * drb * c
-    f_t = m_o * dzo * c
     fn[kc] = f_n
     ft[kc] = -f_t
-    out[2] -= f_n
-    out[3] -= f_t
-    out[4] += f_t * vs_k
-    out[5] += (1.0 if dzi != 0.0 else 0.0) + (1.0 if drb > 0.0 else 0.0)
-    # energy: the nodal pass counted the node's mean velocity (v_old + v_trial)/2 with its whole force
-    ar = 0.5 * (v_old[ia, kc, 0] + vr_t)
-    az = 0.5 * (v_old[ia, kc, 1] + vz_t)
-    bA = 0.5 * (ra_o + ra)
-    bB = 0.5 * (rb_o + rb)
-    bi = 0.5 * (zi_o + zi)
-    bo = 0.5 * (zo_o + zo)
-    fr = (fs[0], fq[0], fh[0])
-    fz = (fs[1], fq[1], fh[1])
-    frB = (frs, frq, frh)
-    fzO = (fzs, fzq, fzh)
-    for d in range(3):
-        true = (fr[d] - frB[d]) * bA + frB[d] * bB + (fz[d] - fzO[d]) * bi + fzO[d] * bo
-        cw[d] = -dt * (true - fr[d] * ar - fz[d] * az)
-    cw[3] = -gravity * dt * (m_i * bi + m_o * bo - m * az)
-    cw[4] = m_A * dra * bA + m_u * drb * bB + m_i * dzi * bi + m_o * dzo * bo
-    cw[5] = 0.5 * (m_A * bA * bA + m_u * bB * bB + m_i * bi * bi + m_o * bo * bo) - 0.5 * m * (ar * ar + az * az)
 
 
 @njit(**KERNEL_OPTIONS)

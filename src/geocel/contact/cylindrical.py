@@ -30,7 +30,7 @@ from numba import njit
 from ..bodies.pile import PileBody, Surface
 from ..euler.cylindrical import gather_node_force_cyl
 from ..materials.tensor import KERNEL_OPTIONS
-from .axisym import AxisymmetricPileContact, RigidPileRZ, _split_trial, _split_velocity
+from .axisym import AxisymmetricPileContact, RigidPileRZ, split_corner_node
 
 #: rim node treatments (kernel codes 0, 1, 3 as in r–z; r–z's "split" has no counterpart here)
 RIM_OPTIONS_CYL = ("shaft", "base", "corner")
@@ -192,7 +192,6 @@ def corner_cyl(
     nr, nt, nz = mass.shape
     for d in range(6):
         cw[d] = 0.0
-    c = 1.0 / dt
     for j in range(nt + 1):
         m_i = 0.0
         m_l = 0.0
@@ -201,10 +200,7 @@ def corner_cyl(
             m_i += 0.125 * mass[ia - 1, cj, kc - 1]
             m_l += 0.125 * mass[ia, cj, kc - 1]
             m_u += 0.125 * mass[ia, cj, kc]
-        m_A = m_i + m_l
-        m_o = m_l + m_u
-        m = m_A + m_u
-        if m <= mtiny:  # (nothing to split)
+        if m_i + m_l + m_u <= mtiny:  # (nothing to split)
             corner[j, 0] = 0.0
             corner[j, 1] = 0.0
             corner[j, 2] = v[ia, j, kc, 2]
@@ -212,65 +208,15 @@ def corner_cyl(
             continue
         g = gather_node_force_cyl(ia, j, kc, cf, ties, nr, nt, nz)
         fzO, frB = _outer_forces(ia, j, kc, cf, nt)
-        vr_t = v[ia, j, kc, 0]
-        vz_t = v[ia, j, kc, 2]
-        zi_o, zo_o = _split_velocity(m_i, m_o, mtiny, v_old[ia, j, kc, 2], corner[j, 0])
-        ra_o, rb_o = _split_velocity(m_A, m_u, mtiny, v_old[ia, j, kc, 0], corner[j, 1])
-        az_o = (fzO[0] + fzO[1] + fzO[2]) / max(m_o, mtiny) - gravity
-        zi_t, zo_t = _split_trial(m_i, m_o, mtiny, vz_t, zo_o, az_o, dt)
-        ra_t, rb_t = _split_trial(m_A, m_u, mtiny, vr_t, rb_o, (frB[0] + frB[1] + frB[2]) / max(m_u, mtiny), dt)
-        drb = -rb_t if (rb_t < 0.0 and m_u > mtiny and not fix[ia, j, kc, 0]) else 0.0
-        dzo = 0.0
-        if drb > 0.0 and m_o > mtiny and not fix[ia, j, kc, 2]:
-            t = zo_t - vs_k
-            lim = mu * m_u * drb / m_o
-            dzo = -t if abs(t) <= lim else (-lim if t > 0.0 else lim)
-        dzi = 0.0
-        if m_i > mtiny and zi_t > vp and not fix[ia, j, kc, 2]:
-            dzi = vp - zi_t
-        dra = 0.0
-        if dzi != 0.0 and not fix[ia, j, kc, 0]:
-            lim = mu_b * m_i * (-dzi) / m_A
-            dra = -ra_t if abs(ra_t) <= lim else (-lim if ra_t > 0.0 else lim)
-        zi = zi_t + dzi
-        zo = zo_t + dzo
-        ra = ra_t + dra
-        rb = rb_t + drb
-        vr = (m_A * ra + m_u * rb) / m
-        vz = (m_i * zi + m_o * zo) / m
+        vr, vz, f_n, f_t = split_corner_node(
+            m_i, m_l, m_u, mtiny, v_old[ia, j, kc, 0], v_old[ia, j, kc, 2], v[ia, j, kc, 0], v[ia, j, kc, 2],
+            (g[0], g[3], g[6]), (g[2], g[5], g[8]), frB, fzO, fix[ia, j, kc, 0], fix[ia, j, kc, 2], gravity, vp,
+            vs_k, mu, mu_b, dt, corner[j], out, cw,
+        )  # fmt: skip
         v[ia, j, kc, 0] = vr
         v[ia, j, kc, 2] = vz
-        corner[j, 0] = zo - zi if (m_i > mtiny and m_o > mtiny) else 0.0
-        corner[j, 1] = rb - ra if (m_A > mtiny and m_u > mtiny) else 0.0
-        corner[j, 2] = zi
-        corner[j, 3] = rb
-        frb = m_A * dra * c
-        fzb = m_i * dzi * c
-        out[0] -= frb
-        out[1] -= fzb
-        out[4] += fzb * vp
-        f_n = m_u * drb * c
-        f_t = m_o * dzo * c
         fn[j, kc] = f_n
         ft[j, kc] = -f_t
-        out[2] -= f_n
-        out[3] -= f_t
-        out[4] += f_t * vs_k
-        out[5] += (1.0 if dzi != 0.0 else 0.0) + (1.0 if drb > 0.0 else 0.0)
-        ar = 0.5 * (v_old[ia, j, kc, 0] + vr_t)
-        az = 0.5 * (v_old[ia, j, kc, 2] + vz_t)
-        bA = 0.5 * (ra_o + ra)
-        bB = 0.5 * (rb_o + rb)
-        bi = 0.5 * (zi_o + zi)
-        bo = 0.5 * (zo_o + zo)
-        fr = (g[0], g[3], g[6])
-        fz = (g[2], g[5], g[8])
-        for d in range(3):
-            true = (fr[d] - frB[d]) * bA + frB[d] * bB + (fz[d] - fzO[d]) * bi + fzO[d] * bo
-            cw[d] -= dt * (true - fr[d] * ar - fz[d] * az)
-        cw[3] -= gravity * dt * (m_i * bi + m_o * bo - m * az)
-        cw[4] += m_A * dra * bA + m_u * drb * bB + m_i * dzi * bi + m_o * dzo * bo
-        cw[5] += 0.5 * (m_A * bA * bA + m_u * bB * bB + m_i * bi * bi + m_o * bo * bo) - 0.5 * m * (ar * ar + az * az)
 
 
 @njit(**KERNEL_OPTIONS)

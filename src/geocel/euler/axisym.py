@@ -48,6 +48,7 @@ from .lagrange import (
     G_FROM_M,
     PHI_MIN,
     cell_response,
+    chunk_minimum,
     column_sums,
     mode_limit,
     strength_reserve,
@@ -533,37 +534,9 @@ def _update_rows_rz(
 
 @njit(parallel=True, **KERNEL_OPTIONS)
 def update_cells_rz(
-    tag,
-    prm,
-    rc,
-    hr,
-    hz,
-    Vs,
-    mass,
-    stress,
-    state,
-    v,
-    q,
-    hg,
-    modulus,
-    flags,
-    dt,
-    b1,
-    b2,
-    kappa,
-    kappa_s,
-    hoff,
-    mf,
-    cf,
-    max_sub,
-    nlf,
-    nonlocal_,
-    nchunk,
-    split,
-    clevel,
-    phase,
-    cell_dt,
-):
+    tag, prm, rc, hr, hz, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s, hoff, mf,
+    cf, max_sub, nlf, nonlocal_, nchunk, split, clevel, phase, cell_dt,
+):  # fmt: skip
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (module
     docstring: D = (D_rr, D_θθ, D_zz, 0, D_rz, 0)Δt, W_13 Δt; the model given by ``tag``; in
     :func:`~geocel.euler.lagrange.substeps` equal explicit substeps of at most the strain ``max_sub``, as in
@@ -594,11 +567,4 @@ def update_cells_rz(
             tag, prm, rc, hr, hz, Vs, mass, stress, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s, hoff, mf,
             cf, max_sub, nlf, nonlocal_, nchunk, split, v, s2, st2, np.int64(ch), clevel, phase, cell_dt,
         )  # fmt: skip
-    dt_min = np.inf
-    arg = -1
-    for ch in range(nchunk):
-        # ties go to the lowest cell index, whatever the chunking
-        if dts[ch] < dt_min or (dts[ch] == dt_min and args[ch] < arg):
-            dt_min = dts[ch]
-            arg = args[ch]
-    return dt_min, arg
+    return chunk_minimum(dts, args)

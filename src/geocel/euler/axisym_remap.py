@@ -25,7 +25,7 @@ from numba import njit, prange
 
 from ..materials.tensor import KERNEL_OPTIONS
 from .axisym import NO_SPLIT
-from .remap import soil_fraction, sweep_cells, sweep_nodes
+from .remap import sweep_cells_along, sweep_nodes_along
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -89,26 +89,11 @@ _PERM = {0: (2, 1, 0), 2: (0, 1, 2)}
 
 
 def remap_rz(
-    r: np.ndarray,
-    hz: np.ndarray,
-    active: np.ndarray,
-    v: np.ndarray,
-    dt: float,
-    Vs: np.ndarray,
-    Vcur: np.ndarray,
-    mass: np.ndarray,
-    stress: np.ndarray,
-    state: np.ndarray,
-    nmass: np.ndarray,
-    fbar: np.ndarray,
-    parity: int,
-    mtiny: float,
-    rho_lo: float = 0.0,
-    rho_hi: float = np.inf,
-    displacement: np.ndarray | None = None,
-    work: dict | None = None,
-    split: np.ndarray = NO_SPLIT,
-) -> tuple[float, float]:
+    r: np.ndarray, hz: np.ndarray, active: np.ndarray, v: np.ndarray, dt: float, Vs: np.ndarray, Vcur: np.ndarray,
+    mass: np.ndarray, stress: np.ndarray, state: np.ndarray, nmass: np.ndarray, fbar: np.ndarray, parity: int,
+    mtiny: float, rho_lo: float = 0.0, rho_hi: float = np.inf, displacement: np.ndarray | None = None,
+    work: dict | None = None, split: np.ndarray = NO_SPLIT,
+) -> tuple[float, float]:  # fmt: skip
     """Advect everything back to the fixed r–z grid (in place): node radii ``r`` (nr+1), cell heights ``hz``
     (nz), cell arrays (nr, nz[, k]), node arrays (nr+1, nz+1[, 2]) with velocity components (v_r, v_z).
     ``nmass`` (per radian) holds the nodal masses on entry and is updated; ``state`` the advected state
@@ -151,30 +136,11 @@ def remap_rz(
     capped = 0.0
     for axis in _ORDERS[parity % 2]:
         p = _PERM[axis]
-        others = p[:2]
-        pc = p + (3,)
-        soil_fraction(Vs3, Vcur3, phi)
-        lo, ca = sweep_cells(
-            h[others[0]],
-            h[others[1]],
-            act3.transpose(p),
-            u3.transpose(pc),
-            axis,
-            dt,
-            phi.transpose(p),
-            Vs3.transpose(p),
-            Vcur3.transpose(p),
-            mass3.transpose(p),
-            stress3.transpose(pc),
-            state3.transpose(pc),
-            fbar3.transpose(p),
-            axis == 2,
-            rho_lo,
-            rho_hi,
-        )
+        lo, ca = sweep_cells_along(p, axis, (h[p[0]], h[p[1]]), act3, u3, dt, phi, Vs3, Vcur3, mass3, stress3,
+                                   state3, fbar3, rho_lo, rho_hi)  # fmt: skip
         lost += lo
         capped += ca
-        sweep_nodes(fbar3.transpose(p), m_cur.transpose(p), m_next.transpose(p), v3.transpose(pc), mtiny)
+        sweep_nodes_along(p, fbar3, m_cur, m_next, v3, mtiny)
         m_cur, m_next = m_next, m_cur
     _from_wedge(m_cur, v3, nmass, v)
     return lost, capped

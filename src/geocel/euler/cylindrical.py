@@ -47,8 +47,10 @@ from .lagrange import (
     PHI_MIN,
     cell_response,
     characteristic_length,
+    chunk_minimum,
     clear_void_cell,
     column_sums,
+    corner_sums,
     hourglass_modes,
     update_node,
 )
@@ -328,47 +330,14 @@ def advance_nodes_cyl(
 @njit(**KERNEL_OPTIONS)
 def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz, si, sk, zi, rb, m):
     """Velocity gradient L (9-tuple, row-major L_ab, a, b ∈ r, θ, z) at the centre of cell (i, j, k) (module
-    docstring) and the hourglass amplitudes q_α = Σ h_αI v_I (α = ξη, ηζ, ξζ, ξηζ; 4 × 3 as a 12-tuple). ``m``:
-    the cell spans m sectors from node line j (a tied group; ``dth`` is then its whole angle).
+    docstring) and the hourglass amplitudes (:func:`geocel.euler.lagrange.corner_sums`). ``m``: the cell spans
+    m sectors from node line j (a tied group; ``dth`` is then its whole angle).
 
-    ``si, sk`` ≥ 0 (−1: none; ``zi``, ``rb`` are then not read): the nodes (si, ·, sk) are split at the pile's corner (as r–z's
-    :func:`geocel.euler.axisym.split_gradient_rz`, on every node line j): the cells under the base's edge
-    (si − 1, ·, sk − 1) see the vertical velocity ``zi[j]`` there instead of v_z, the cells beside the shaft
-    (si, ·, sk) the radial velocity ``rb[j]`` instead of v_r."""
-    sr = (0.0, 0.0, 0.0)
-    st = (0.0, 0.0, 0.0)
-    sz = (0.0, 0.0, 0.0)
-    sm = (0.0, 0.0, 0.0)
-    q1 = (0.0, 0.0, 0.0)
-    q2 = (0.0, 0.0, 0.0)
-    q3 = (0.0, 0.0, 0.0)
-    q4 = (0.0, 0.0, 0.0)
-    for a in range(2):
-        xi = 2.0 * a - 1.0
-        for b in range(2):
-            eta = 2.0 * b - 1.0
-            for c in range(2):
-                zeta = 2.0 * c - 1.0
-                v0 = v[i + a, j + b * m, k + c, 0]
-                v1 = v[i + a, j + b * m, k + c, 1]
-                v2 = v[i + a, j + b * m, k + c, 2]
-                if i + a == si and k + c == sk:
-                    if a == 1 and c == 1:
-                        v2 = zi[j + b * m]
-                    elif a == 0 and c == 0:
-                        v0 = rb[j + b * m]
-                sr = (sr[0] + xi * v0, sr[1] + xi * v1, sr[2] + xi * v2)
-                st = (st[0] + eta * v0, st[1] + eta * v1, st[2] + eta * v2)
-                sz = (sz[0] + zeta * v0, sz[1] + zeta * v1, sz[2] + zeta * v2)
-                sm = (sm[0] + v0, sm[1] + v1, sm[2] + v2)
-                h1 = xi * eta
-                h2 = eta * zeta
-                h3 = xi * zeta
-                h4 = h1 * zeta
-                q1 = (q1[0] + h1 * v0, q1[1] + h1 * v1, q1[2] + h1 * v2)
-                q2 = (q2[0] + h2 * v0, q2[1] + h2 * v1, q2[2] + h2 * v2)
-                q3 = (q3[0] + h3 * v0, q3[1] + h3 * v1, q3[2] + h3 * v2)
-                q4 = (q4[0] + h4 * v0, q4[1] + h4 * v1, q4[2] + h4 * v2)
+    ``si, sk`` ≥ 0 (−1: none; ``zi``, ``rb`` are then not read): the nodes (si, ·, sk) are split at the pile's
+    corner (as r–z's :func:`geocel.euler.axisym.split_gradient_rz`, on every node line j): the cells under the
+    base's edge (si − 1, ·, sk − 1) see the vertical velocity ``zi[j]`` there instead of v_z, the cells beside
+    the shaft (si, ·, sk) the radial velocity ``rb[j]`` instead of v_r."""
+    sr, st, sz, sm, q = corner_sums(v, i, j, k, m, si, sk, zi, rb)
     gr = 0.25 / hr
     gt = 0.25 / (rc * dth)
     gz = 0.25 / hz
@@ -384,7 +353,7 @@ def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz, si, sk, zi, rb, m):
         st[2] * gt,
         sz[2] * gz,
     )
-    return L, (q1[0], q1[1], q1[2], q2[0], q2[1], q2[2], q3[0], q3[1], q3[2], q4[0], q4[1], q4[2])
+    return L, q
 
 
 @njit(**KERNEL_OPTIONS)
@@ -475,13 +444,7 @@ def update_cells_cyl(
             tag, prm, rc, hr, dth, ties, hz, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2,
             kappa, kappa_s, hoff, mf, cf, max_sub, si, sk, zi, rb, nlf, nonlocal_, s2, st2, np.int64(i), np.int64(j), mt,
         )  # fmt: skip
-    dt_min = np.inf
-    arg = -1
-    for ch in range(nchunk):
-        if dts[ch] < dt_min:
-            dt_min = dts[ch]
-            arg = args[ch]
-    return dt_min, arg
+    return chunk_minimum(dts, args)
 
 
 # --- non-local soil model (internal length) ------------------------------------------------------------------

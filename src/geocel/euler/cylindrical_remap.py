@@ -37,7 +37,7 @@ from numba import njit, prange
 
 from ..materials.tensor import KERNEL_OPTIONS
 from .cylindrical import follow_masters, node_mass_cyl
-from .remap import soil_fraction, sweep_cells, sweep_nodes
+from .remap import sweep_cells_along, sweep_nodes_along
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -296,31 +296,13 @@ _PERM = {0: (2, 1, 0), 1: (0, 2, 1), 2: (0, 1, 2)}
 
 
 def remap_cyl(
-    r: np.ndarray,
-    dth: float,
-    hz: np.ndarray,
-    v: np.ndarray,
-    Vs: np.ndarray,
-    Vcur: np.ndarray,
-    mass: np.ndarray,
-    stress: np.ndarray,
-    state: np.ndarray,
-    nmass: np.ndarray,
-    fbar: np.ndarray,
-    parity: int,
-    mtiny: float,
-    displacement: np.ndarray,
-    state_tensors: tuple[int, ...],
-    hourglass_offset: int,
-    rho_lo: float = 0.0,
-    rho_hi: float = np.inf,
-    work: dict | None = None,
-    active: np.ndarray | None = None,
-    split: tuple[int, int] = (-1, -1),
-    split_z: np.ndarray | None = None,
-    split_r: np.ndarray | None = None,
+    r: np.ndarray, dth: float, hz: np.ndarray, v: np.ndarray, Vs: np.ndarray, Vcur: np.ndarray, mass: np.ndarray,
+    stress: np.ndarray, state: np.ndarray, nmass: np.ndarray, fbar: np.ndarray, parity: int, mtiny: float,
+    displacement: np.ndarray, state_tensors: tuple[int, ...], hourglass_offset: int, rho_lo: float = 0.0,
+    rho_hi: float = np.inf, work: dict | None = None, active: np.ndarray | None = None,
+    split: tuple[int, int] = (-1, -1), split_z: np.ndarray | None = None, split_r: np.ndarray | None = None,
     ties: np.ndarray | None = None,
-) -> tuple[float, float]:
+) -> tuple[float, float]:  # fmt: skip
     """Advect everything back to the fixed cylindrical grid (in place) with the mesh motion ``displacement``
     (m, node arrays (nr+1, nθ+1, nz+1, 3) in local components). ``state`` holds the advected state components
     (the caller's view without e); ``state_tensors`` the offsets of its symmetric tensors and
@@ -375,32 +357,14 @@ def remap_cyl(
         if axis == 1 and skip_theta:
             continue
         p = _PERM[axis]
-        pc = p + (3,)
         if axis == 1:  # across θ: Cartesian components
             _turn_cells(stress, state, work["theta_c"], tens, hgo, 1.0)
             _turn_nodes(v, work["theta_n"], 1.0)
-        soil_fraction(Vs, Vcur, phi)
-        lo, ca = sweep_cells(
-            h[axis][0],
-            h[axis][1],
-            active.transpose(p),
-            u3.transpose(pc),
-            axis,
-            1.0,
-            phi.transpose(p),
-            Vs.transpose(p),
-            Vcur.transpose(p),
-            mass.transpose(p),
-            stress.transpose(pc),
-            state.transpose(pc),
-            fbar.transpose(p),
-            axis == 2,
-            rho_lo,
-            rho_hi,
-        )
+        lo, ca = sweep_cells_along(p, axis, h[axis], active, u3, 1.0, phi, Vs, Vcur, mass, stress, state, fbar,
+                                   rho_lo, rho_hi)  # fmt: skip
         lost += lo
         capped += ca
-        sweep_nodes(fbar.transpose(p), m_cur.transpose(p), m_next.transpose(p), v.transpose(pc), mtiny)
+        sweep_nodes_along(p, fbar, m_cur, m_next, v, mtiny)
         m_cur, m_next = m_next, m_cur
         if axis == 1:
             _turn_cells(stress, state, work["theta_c"], tens, hgo, -1.0)

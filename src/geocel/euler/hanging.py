@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..materials.tensor import KERNEL_OPTIONS
-from .lagrange import advance_node, column_sums, gather_node_force
+from .lagrange import advance_node, column_sums, corner_mass, gather_node_force
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -260,13 +260,13 @@ def merge_momentum(coarse_nodes, fine_nodes, parent, weight,
             J = coarse_nodes[c, 1]
             for d in range(3):
                 p[c, d] = nm_c[I, J, k] * v_c[I, J, k, d]
-            mc = _corner_mass(mass_c, active_c, I, J, k, nxc, nyc, nz)
+            mc = corner_mass(mass_c, active_c, I, J, k, nxc, nyc, nz)
             nm_c[I, J, k] = mc
             m[c] = mc
         for n in range(fine_nodes.shape[0]):
             i = fine_nodes[n, 0]
             j = fine_nodes[n, 1]
-            mf = _corner_mass(mass_f, active_f, i, j, k, nxf, nyf, nz)
+            mf = corner_mass(mass_f, active_f, i, j, k, nxf, nyf, nz)
             for s in range(2):
                 w = weight[n, s]
                 if w == 0.0:
@@ -282,16 +282,3 @@ def merge_momentum(coarse_nodes, fine_nodes, parent, weight,
             for d in range(3):
                 v_c[I, J, k, d] = p[c, d] / m[c] if m[c] > mtiny else 0.0
         interpolate_slaves(coarse_nodes, fine_nodes, parent, weight, v_c, v_f, k)
-
-
-@njit(inline="always", **KERNEL_OPTIONS)
-def _corner_mass(mass, active, i, j, k, nx, ny, nz):
-    """Σ m/8 over the active cells around node (i, j, k)."""
-    s = 0.0
-    for ci in range(max(i - 1, 0), min(i + 1, nx)):
-        for cj in range(max(j - 1, 0), min(j + 1, ny)):
-            if not active[ci, cj]:
-                continue
-            for ck in range(max(k - 1, 0), min(k + 1, nz)):
-                s += mass[ci, cj, ck]
-    return 0.125 * s

@@ -89,6 +89,19 @@ def characteristic_length(hx, hy, hz):
     return 1.0 / np.sqrt(1.0 / (hx * hx) + 1.0 / (hy * hy) + 1.0 / (hz * hz))
 
 
+@njit(inline="always", **KERNEL_OPTIONS)
+def corner_mass(mass, active, i, j, k, nx, ny, nz):
+    """Σ m/8 over the active cells around node (i, j, k) (``active`` per column)."""
+    s = 0.0
+    for ci in range(max(i - 1, 0), min(i + 1, nx)):
+        for cj in range(max(j - 1, 0), min(j + 1, ny)):
+            if not active[ci, cj]:
+                continue
+            for ck in range(max(k - 1, 0), min(k + 1, nz)):
+                s += mass[ci, cj, ck]
+    return 0.125 * s
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
 def node_mass(mass, active, out, i0, i1, j0, j1, k0, k1):
     """Lumped nodal mass: an eighth of each adjacent active cell's soil mass, for the nodes of the box
@@ -100,14 +113,7 @@ def node_mass(mass, active, out, i0, i1, j0, j1, k0, k1):
     for i in prange(i0, i1):
         for j in range(j0, j1):
             for k in range(k0, k1):
-                s = 0.0
-                for ci in range(max(i - 1, 0), min(i + 1, nx)):
-                    for cj in range(max(j - 1, 0), min(j + 1, ny)):
-                        if not active[ci, cj]:
-                            continue
-                        for ck in range(max(k - 1, 0), min(k + 1, nz)):
-                            s += mass[ci, cj, ck]
-                out[i, j, k] = 0.125 * s
+                out[i, j, k] = corner_mass(mass, active, i, j, k, nx, ny, nz)
 
 
 @njit(**KERNEL_OPTIONS)
@@ -422,14 +428,19 @@ def hourglass_modes(s2, st2, hg, c, i, j, k, hoff, qh, hcell, kfac, chg, rho, mf
             hg[i, j, k, a, d] = chg * qh[3 * a + d] + sq / rho
 
 
-@njit(**KERNEL_OPTIONS)
-def _velocity_gradient(v, i, j, k, hx, hy, hz):
-    """Velocity gradient L (9-tuple, row-major L_ab = ∂v_a/∂x_b) at the centre of cell (i, j, k) and the
-    hourglass mode amplitudes q_α (α = ξη, ηζ, ξζ, ξηζ; 4 × 3 as a 12-tuple), on scalar registers."""
-    # sums over the corners with the signs of ξ, η, ζ and of the hourglass base vectors
-    sx = (0.0, 0.0, 0.0)
-    sy = (0.0, 0.0, 0.0)
-    sz = (0.0, 0.0, 0.0)
+@njit(inline="always", **KERNEL_OPTIONS)
+def corner_sums(v, i, j, k, m, si, sk, zi, rb):
+    """Sums over the 8 corners of cell (i, j, k) of v with the signs of ξ, η, ζ, the plain sum, and the
+    hourglass amplitudes q_α = Σ h_αI v_I (α = ξη, ηζ, ξζ, ξηζ; 4 × 3 as a 12-tuple): (s_ξ, s_η, s_ζ, s, q),
+    each s a 3-tuple. The second index of the corners is j and j + m (a cell spanning m tied sectors of the
+    cylindrical layout; 1 elsewhere). ``si, sk`` ≥ 0: the nodes (si, ·, sk) are split at the pile's corner (the
+    cylindrical layout's and r–z's rim, :func:`geocel.euler.cylindrical.velocity_gradient_cyl`): the cell
+    under the base's edge sees the vertical velocity ``zi[j]`` there, the cell beside the shaft the radial
+    velocity ``rb[j]``; −1: none (``zi``, ``rb`` are then not read)."""
+    s0 = (0.0, 0.0, 0.0)
+    s1 = (0.0, 0.0, 0.0)
+    s2 = (0.0, 0.0, 0.0)
+    sm = (0.0, 0.0, 0.0)
     q1 = (0.0, 0.0, 0.0)
     q2 = (0.0, 0.0, 0.0)
     q3 = (0.0, 0.0, 0.0)
@@ -440,12 +451,18 @@ def _velocity_gradient(v, i, j, k, hx, hy, hz):
             eta = 2.0 * b - 1.0
             for c in range(2):
                 zeta = 2.0 * c - 1.0
-                v0 = v[i + a, j + b, k + c, 0]
-                v1 = v[i + a, j + b, k + c, 1]
-                v2 = v[i + a, j + b, k + c, 2]
-                sx = (sx[0] + xi * v0, sx[1] + xi * v1, sx[2] + xi * v2)
-                sy = (sy[0] + eta * v0, sy[1] + eta * v1, sy[2] + eta * v2)
-                sz = (sz[0] + zeta * v0, sz[1] + zeta * v1, sz[2] + zeta * v2)
+                v0 = v[i + a, j + b * m, k + c, 0]
+                v1 = v[i + a, j + b * m, k + c, 1]
+                v2 = v[i + a, j + b * m, k + c, 2]
+                if i + a == si and k + c == sk:
+                    if a == 1 and c == 1:
+                        v2 = zi[j + b * m]
+                    elif a == 0 and c == 0:
+                        v0 = rb[j + b * m]
+                s0 = (s0[0] + xi * v0, s0[1] + xi * v1, s0[2] + xi * v2)
+                s1 = (s1[0] + eta * v0, s1[1] + eta * v1, s1[2] + eta * v2)
+                s2 = (s2[0] + zeta * v0, s2[1] + zeta * v1, s2[2] + zeta * v2)
+                sm = (sm[0] + v0, sm[1] + v1, sm[2] + v2)
                 h1 = xi * eta
                 h2 = eta * zeta
                 h3 = xi * zeta
@@ -454,21 +471,24 @@ def _velocity_gradient(v, i, j, k, hx, hy, hz):
                 q2 = (q2[0] + h2 * v0, q2[1] + h2 * v1, q2[2] + h2 * v2)
                 q3 = (q3[0] + h3 * v0, q3[1] + h3 * v1, q3[2] + h3 * v2)
                 q4 = (q4[0] + h4 * v0, q4[1] + h4 * v1, q4[2] + h4 * v2)
+    q = (q1[0], q1[1], q1[2], q2[0], q2[1], q2[2], q3[0], q3[1], q3[2], q4[0], q4[1], q4[2])
+    return s0, s1, s2, sm, q
+
+
+#: the split-corner arguments of :func:`corner_sums` for a grid without one
+NO_SPLIT = np.zeros(1)
+
+
+@njit(**KERNEL_OPTIONS)
+def _velocity_gradient(v, i, j, k, hx, hy, hz):
+    """Velocity gradient L (9-tuple, row-major L_ab = ∂v_a/∂x_b) at the centre of cell (i, j, k) and the
+    hourglass mode amplitudes q_α (:func:`corner_sums`), on scalar registers."""
+    sx, sy, sz, _, q = corner_sums(v, i, j, k, 1, -1, -1, NO_SPLIT, NO_SPLIT)
     gx = 0.25 / hx
     gy = 0.25 / hy
     gz = 0.25 / hz
-    L = (
-        sx[0] * gx,
-        sy[0] * gy,
-        sz[0] * gz,
-        sx[1] * gx,
-        sy[1] * gy,
-        sz[1] * gz,
-        sx[2] * gx,
-        sy[2] * gy,
-        sz[2] * gz,
-    )
-    return L, (q1[0], q1[1], q1[2], q2[0], q2[1], q2[2], q3[0], q3[1], q3[2], q4[0], q4[1], q4[2])
+    L = (sx[0] * gx, sy[0] * gy, sz[0] * gz, sx[1] * gx, sy[1] * gy, sz[1] * gz, sx[2] * gx, sy[2] * gy, sz[2] * gz)
+    return L, q
 
 
 #: most explicit substeps of one cell's constitutive update in a time step (reached only at strain
@@ -514,6 +534,19 @@ def cell_response(tag, prm, s2, st2, c, L, dt, max_sub, nl, dbuf, wbuf, mass, vs
     # the stable step, with the viscosity's correction of the explicit scheme and the soil's own speed
     vmax = np.sqrt(L[0] ** 2 + L[4] ** 2 + L[8] ** 2) * le
     return M, f, rho, cd, qn, critical_step(le, cd, b1, b2, tr, vmax)
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def chunk_minimum(dts, args):
+    """The smallest of the chunks' stable steps ``dts`` and the cell index ``args`` governing it (ties: the
+    lowest index, whatever the chunking)."""
+    dt_min = np.inf
+    arg = -1
+    for ch in range(dts.shape[0]):
+        if dts[ch] < dt_min or (dts[ch] == dt_min and args[ch] < arg):
+            dt_min = dts[ch]
+            arg = args[ch]
+    return dt_min, arg
 
 
 @njit(**KERNEL_OPTIONS)
@@ -569,33 +602,9 @@ def _update_slabs(
 
 @njit(parallel=True, **KERNEL_OPTIONS)
 def update_cells(
-    tag,
-    prm,
-    hx,
-    hy,
-    hz,
-    active,
-    Vs,
-    mass,
-    stress,
-    state,
-    v,
-    q,
-    hg,
-    modulus,
-    flags,
-    dt,
-    b1,
-    b2,
-    kappa,
-    kappa_s,
-    hoff,
-    mf,
-    cf,
-    max_sub,
-    nlf,
-    nonlocal_,
-):
+    tag, prm, hx, hy, hz, active, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s,
+    hoff, mf, cf, max_sub, nlf, nonlocal_,
+):  # fmt: skip
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (the model
     given by ``tag``, :func:`geocel.materials.kernels.model_tag`; with ``nonlocal_`` the non-local factors
     ``nlf`` of :func:`nonlocal_factor`).
@@ -630,13 +639,7 @@ def update_cells(
             kappa_s, hoff, mf, cf, max_sub, nlf, nonlocal_, s2, st2, np.int64(ch * nx // nchunk),
             np.int64((ch + 1) * nx // nchunk),
         )  # fmt: skip
-    dt_min = np.inf
-    arg = -1
-    for ch in range(nchunk):
-        if dts[ch] < dt_min:
-            dt_min = dts[ch]
-            arg = args[ch]
-    return dt_min, arg
+    return chunk_minimum(dts, args)
 
 
 # --- non-local soil model (internal length) ------------------------------------------------------------------

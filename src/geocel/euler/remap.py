@@ -337,6 +337,25 @@ def sweep_nodes(fbar, m_old, m_new, v, mtiny):
                     v[i, j, k, d] = min(hi, max(lo, p / mn))
 
 
+def sweep_cells_along(p, axis, h, active, u, dt, phi, Vs, Vcur, mass, stress, state, fbar, rho_lo, rho_hi):
+    """One cell sweep along ``axis`` of every geometry's remap: the soil fractions, then :func:`sweep_cells` on
+    the arrays transposed by ``p`` (the swept axis last); ``h`` the face sizes of the transposed arrays'
+    first two axes, ``u`` the mesh motion (nodes, 3). Returns (mass lost through the top, volume capped)."""
+    soil_fraction(Vs, Vcur, phi)
+    pc = p + (3,)
+    return sweep_cells(
+        h[0], h[1], active.transpose(p), u.transpose(pc), axis, dt, phi.transpose(p), Vs.transpose(p),
+        Vcur.transpose(p), mass.transpose(p), stress.transpose(pc), state.transpose(pc), fbar.transpose(p),
+        axis == 2, rho_lo, rho_hi,
+    )  # fmt: skip
+
+
+def sweep_nodes_along(p, fbar, m_cur, m_next, v, mtiny):
+    """The node sweep that follows :func:`sweep_cells_along` (same transposition ``p``): ``m_next`` gets the
+    nodal masses, ``v`` the advected velocities."""
+    sweep_nodes(fbar.transpose(p), m_cur.transpose(p), m_next.transpose(p), v.transpose(p + (3,)), mtiny)
+
+
 _ORDERS = ((0, 1, 2), (2, 1, 0))
 # transposition of (x, y, z) arrays so that the swept axis comes last; every sweep gets a transposed
 # (non-contiguous) view, so that numba compiles one specialisation of each sweep kernel, not two
@@ -344,26 +363,11 @@ _PERM = {0: (1, 2, 0), 1: (0, 2, 1), 2: (1, 0, 2)}
 
 
 def remap(
-    hx: np.ndarray,
-    hy: np.ndarray,
-    hz: np.ndarray,
-    active2d: np.ndarray,
-    active3: np.ndarray,
-    v: np.ndarray,
-    dt: float,
-    Vs: np.ndarray,
-    Vcur: np.ndarray,
-    mass: np.ndarray,
-    stress: np.ndarray,
-    state: np.ndarray,
-    nmass: np.ndarray,
-    fbar: np.ndarray,
-    parity: int,
-    mtiny: float,
-    rho_lo: float = 0.0,
-    rho_hi: float = np.inf,
+    hx: np.ndarray, hy: np.ndarray, hz: np.ndarray, active2d: np.ndarray, active3: np.ndarray, v: np.ndarray,
+    dt: float, Vs: np.ndarray, Vcur: np.ndarray, mass: np.ndarray, stress: np.ndarray, state: np.ndarray,
+    nmass: np.ndarray, fbar: np.ndarray, parity: int, mtiny: float, rho_lo: float = 0.0, rho_hi: float = np.inf,
     displacement: np.ndarray | None = None,
-) -> tuple[float, float]:
+) -> tuple[float, float]:  # fmt: skip
     """Advect everything back to the fixed grid (in place). ``nmass`` holds the nodal masses on entry and
     is updated. ``state`` holds the advected state components (a caller passes a view without those it
     recomputes from the result). The mesh motion of the Lagrangian phase is v Δt, or ``displacement``
@@ -401,31 +405,12 @@ def remap_sweeps(
     phi = np.empty_like(Vs)
     for axis in _ORDERS[parity % 2]:
         p = _PERM[axis]
-        others = p[:2]
-        pc = p + (3,)
-        soil_fraction(Vs, Vcur, phi)
-        l, c = sweep_cells(
-            h[others[0]],
-            h[others[1]],
-            active3.transpose(p),
-            v_mesh.transpose(pc),
-            axis,
-            dt,
-            phi.transpose(p),
-            Vs.transpose(p),
-            Vcur.transpose(p),
-            mass.transpose(p),
-            stress.transpose(pc),
-            state.transpose(pc),
-            fbar.transpose(p),
-            axis == 2,
-            rho_lo,
-            rho_hi,
-        )
+        l, c = sweep_cells_along(p, axis, (h[p[0]], h[p[1]]), active3, v_mesh, dt, phi, Vs, Vcur, mass, stress,
+                                 state, fbar, rho_lo, rho_hi)  # fmt: skip
         lost += l
         capped += c
         yield "cells", axis, v_mesh, dt
-        sweep_nodes(fbar.transpose(p), m_cur.transpose(p), m_next.transpose(p), v.transpose(pc), mtiny)
+        sweep_nodes_along(p, fbar, m_cur, m_next, v, mtiny)
         m_cur, m_next = m_next, m_cur
         yield "nodes", axis, m_cur
     if m_cur is not nmass:
