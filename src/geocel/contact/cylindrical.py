@@ -29,6 +29,7 @@ from numba import njit
 
 from ..bodies.pile import PileBody, Surface
 from ..euler.cylindrical import gather_node_force_cyl
+from ..euler.lagrange import hourglass_corner
 from ..materials.tensor import KERNEL_OPTIONS
 from .axisym import AxisymmetricPileContact, RigidPileRZ, split_corner_node
 
@@ -74,15 +75,12 @@ def _outer_forces(ia, j, kc, cf, nt):
             c = cf[ia, cj, ck]
             zs -= xi * c[8] + eta * c[9] + zeta * c[10]
             zq += zeta * c[14]
-            h1 = xi * eta
-            h2 = eta * zeta
-            h3 = xi * zeta
-            h4 = h1 * zeta
-            zh -= h1 * c[17] + h2 * c[20] + h3 * c[23] + h4 * c[26]
+            fh = hourglass_corner(c, 15, xi, eta, zeta)
+            zh += fh[2]
             if ck == kc:
                 rs -= xi * c[0] + eta * c[1] + zeta * c[2] + c[3]
                 rq += xi * c[11] + c[12]
-                rh -= h1 * c[15] + h2 * c[18] + h3 * c[21] + h4 * c[24]
+                rh += fh[0]
     return (zs, zq, zh), (rs, rq, rh)
 
 

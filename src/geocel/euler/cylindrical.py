@@ -51,6 +51,7 @@ from .lagrange import (
     clear_void_cell,
     column_sums,
     corner_sums,
+    hourglass_corner,
     hourglass_modes,
     update_node,
 )
@@ -219,13 +220,10 @@ def gather_node_force_cyl(i, j, k, cf, ties, nr, nt, nz):
                 fq0 += xi * c[11] + c[12]
                 fq1 += eta * c[13]
                 fq2 += zeta * c[14]
-                h1 = xi * eta
-                h2 = eta * zeta
-                h3 = xi * zeta
-                h4 = h1 * zeta
-                fh0 -= h1 * c[15] + h2 * c[18] + h3 * c[21] + h4 * c[24]
-                fh1 -= h1 * c[16] + h2 * c[19] + h3 * c[22] + h4 * c[25]
-                fh2 -= h1 * c[17] + h2 * c[20] + h3 * c[23] + h4 * c[26]
+                fh = hourglass_corner(c, 15, xi, eta, zeta)
+                fh0 += fh[0]
+                fh1 += fh[1]
+                fh2 += fh[2]
     return (fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2)
 
 

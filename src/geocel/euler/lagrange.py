@@ -166,6 +166,21 @@ def cell_force_factors(ci, cj, ck, rx, ry, rz, Vs, mass, stress, q, hg, out):
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
+def hourglass_corner(c, o, xi, eta, zeta):
+    """The hourglass force f_d = −Σ_α Q_α,d h_α at the corner (ξ, η, ζ) of a cell whose factors hold Q_α,d at
+    c[o + 3α + d] (α = ξη, ηζ, ξζ, ξηζ), as a 3-tuple; the same in every geometry."""
+    h1 = xi * eta
+    h2 = eta * zeta
+    h3 = xi * zeta
+    h4 = h1 * zeta
+    return (
+        -(h1 * c[o] + h2 * c[o + 3] + h3 * c[o + 6] + h4 * c[o + 9]),
+        -(h1 * c[o + 1] + h2 * c[o + 4] + h3 * c[o + 7] + h4 * c[o + 10]),
+        -(h1 * c[o + 2] + h2 * c[o + 5] + h3 * c[o + 8] + h4 * c[o + 11]),
+    )
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
 def gather_node_force(i, j, k, active, cf, o0, o1, o2, nx, ny, nz):
     """Stress, bulk-viscosity and hourglass forces on node (i, j, k) (grid of nx × ny × nz cells), gathered
     from the :func:`cell_force_factors` ``cf`` of its ≤ 8 cells, cell (ci, cj, ck) at cf[ci − o0, cj − o1,
@@ -197,13 +212,10 @@ def gather_node_force(i, j, k, active, cf, o0, o1, o2, nx, ny, nz):
                 fq0 += xi * c[9]
                 fq1 += eta * c[10]
                 fq2 += zeta * c[11]
-                h1 = xi * eta
-                h2 = eta * zeta
-                h3 = xi * zeta
-                h4 = h1 * zeta
-                fh0 -= h1 * c[12] + h2 * c[15] + h3 * c[18] + h4 * c[21]
-                fh1 -= h1 * c[13] + h2 * c[16] + h3 * c[19] + h4 * c[22]
-                fh2 -= h1 * c[14] + h2 * c[17] + h3 * c[20] + h4 * c[23]
+                fh = hourglass_corner(c, 12, xi, eta, zeta)
+                fh0 += fh[0]
+                fh1 += fh[1]
+                fh2 += fh[2]
     return (fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2)
 
 
