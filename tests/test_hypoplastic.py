@@ -904,6 +904,8 @@ def test_zero_increment(tol):
         [-1e3, -1e3, -1e3, 2e3, 0, 0],  # tensile principal stress via shear only
         [-50.0, -50.0, -50.0, 0, 0, 0],  # compressive but p < p_min = 100 Pa
         [10.0, 10.0, 10.0, 0, 0, 0],  # all tensile
+        # principal stresses (+40, −170, −170) kPa through three shears: the triple product's sign decides
+        [-100e3, -100e3, -100e3, 70e3, 70e3, 70e3],
     ],
 )
 @pytest.mark.parametrize("prm", CASES)
@@ -926,6 +928,9 @@ def test_low_stress_rule(T, prm):
 
 def test_ordinary_stress_is_not_flagged():
     T, _, f = update(PRM_BASE, k0_stress(100e3, 0.5), [0.7, 0, 0, 0, 0, 0, 0], np.zeros(6))
+    assert f == fl.ZERO_INCREMENT
+    # all principal stresses compressive (−30, −30, −240 kPa) with three equal negative-signed shears
+    T, _, f = update(PRM_BASE, [-100e3, -100e3, -100e3, -70e3, -70e3, -70e3], [0.7, 0, 0, 0, 0, 0, 0], np.zeros(6))
     assert f == fl.ZERO_INCREMENT
 
 

@@ -618,7 +618,7 @@ def run(
         f"soil mass error {summary['soil_mass_error']:.2e}, max KE/IE {summary['max_energy_ratio']:.3g}, "
         f"energy balance error {summary['energy_balance_error']:.3g} J of {summary['external_work']:.3g} J external work"
     )
-    if summary["status"] == "unstable":
+    if summary["status"] in ("unstable", "plugin_failed"):
         _print_stop(summary, sim)
         raise typer.Exit(1)
     if "pile_type" in summary and summary["steps"] > 0:
@@ -700,7 +700,8 @@ def _print_stop(summary: dict, sim) -> None:
     where = d.get("position_m")
     axes = "r, z" if where and len(where) == 2 else "x, y, z"  # (the r–z plane of the axisymmetric mode)
     cell = f" at {axes} = ({', '.join(f'{c:.4g}' for c in where)}) m" if where else ""
-    console.print(f"[red]unstable:[/red] {escape(str(d.get('message', '')))}", soft_wrap=True)
+    label = "soil model failed" if summary.get("status") == "plugin_failed" else "unstable"
+    console.print(f"[red]{label}:[/red] {escape(str(d.get('message', '')))}", soft_wrap=True)
     kept = f"step {d.get('last_complete_step')}, t = {d.get('last_complete_time', float('nan')):.6g} s"
     if d.get("last_complete_penetration") is not None:
         kept += f", penetration {d['last_complete_penetration']:.4f} m"

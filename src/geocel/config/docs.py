@@ -22,7 +22,7 @@ from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
 from . import scenario as sc
-from .materials import PRESETS, Elastic, Hypoplastic, MohrCoulomb, Tresca
+from .materials import PRESETS, Elastic, Hypoplastic, MohrCoulomb, Tresca, Umat, Vumat
 
 __all__ = ["field_unit", "render_scenario_reference"]
 
@@ -209,7 +209,8 @@ def _soil_section() -> list[str]:
         "",
         "| key | type | unit | default | allowed | meaning |",
         "|---|---|---|---|---|---|",
-        '| `model` | `"hypoplastic"` \\| `"mohr-coulomb"` \\| `"tresca"` \\| `"elastic"` |  | `"hypoplastic"` (or the '
+        '| `model` | `"hypoplastic"` \\| `"mohr-coulomb"` \\| `"tresca"` \\| `"elastic"` \\| `"umat"` \\| `"vumat"` |  | '
+        '`"hypoplastic"` (or the '
         "preset's) |  | constitutive model |",
         f"| `preset` | {preset_names} |  | (none) |  | named parameter set |",
     ]
@@ -220,6 +221,8 @@ def _soil_section() -> list[str]:
         ("mohr-coulomb", MohrCoulomb),
         ("tresca", Tresca),
         ("elastic", Elastic),
+        ("umat", Umat),
+        ("vumat", Vumat),
     )
     for name, model in models:
         out += [f'### `model = "{name}"`', "", _doc(model), "", *_table(model, skip=("model",)), ""]

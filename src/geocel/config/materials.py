@@ -16,7 +16,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from ..materials import elastic as _el
 from ..materials import hypoplastic as _hp
-from ..materials.kernels import ELASTIC, HYPOPLASTIC, MOHR_COULOMB
+from ..materials import plugin as _pl
+from ..materials.kernels import ELASTIC, HYPOPLASTIC, MOHR_COULOMB, PLUGIN_TAG_DTYPES, model_tag
 
 
 class _Material(BaseModel):
@@ -42,6 +43,15 @@ class _Material(BaseModel):
         """Largest strain of one explicit substep of the field solver's update (-): inf for models whose
         update is exact for any increment (elastic; Mohr–Coulomb's return mapping)."""
         return math.inf
+
+    def kernel_tag(self) -> np.ndarray:
+        """What the compiled kernels dispatch on (:func:`geocel.materials.kernels.cell_update`)."""
+        return model_tag(self.model_id)
+
+    def void_ratio_columns(self) -> tuple[int, ...]:
+        """The state columns holding the void ratio (set from each layer's e0 and from the density after a
+        remap)."""
+        return (0,)
 
 
 class Elastic(_Material):
@@ -252,7 +262,145 @@ class Hypoplastic(_Material):
         return cls(**{**PRESETS["karlsruhe"], **overrides})
 
 
-Material = Annotated[Elastic | MohrCoulomb | Tresca | Hypoplastic, Field(discriminator="model")]
+_STATE_NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
+
+
+class _Plugin(_Material):
+    """An Abaqus user subroutine as the soil model (docs/own-soil-model.md)."""
+
+    library: str = Field(
+        ...,
+        description="the subroutine's compiled library (.so, .dylib, .dll) or its source (.c; Fortran .f, .for, .f90), "
+        "compiled on first use into geocel's cache; a relative path is taken from the working directory",
+    )
+    name: str = Field("SOIL", min_length=1, max_length=80, description="the material name passed as CMNAME")
+    compile_flags: list[str] = Field(
+        [], description="extra compiler flags for a source (after -O2 -fPIC -shared), e.g. [\"-fdefault-real-8\"]"
+    )
+    props: list[float] = Field([], max_length=10000, description="PROPS, in the subroutine's units (SI advised)")
+    state_variables: list[Annotated[str, Field(pattern=_STATE_NAME)]] = Field(
+        [],
+        description="names of the NSTATV state variables (output names); six in a row ending in _11, _22, _33, _12, "
+        "_13, _23 are a symmetric tensor in tensor shear (co-rotated for a VUMAT, turned with the cylindrical "
+        "layout's sectors)",
+    )
+    initial_values: list[float] = Field([], description="initial values of the state variables, one each")
+    void_ratio: int | None = Field(
+        None, ge=1, description="the state variable (1-based) that holds the void ratio, set from each layer's e0 and "
+        "from the density after every remap as geocel's own e (optional)",
+    )  # fmt: skip
+    friction_angle: float | None = Field(
+        None, gt=0.0, lt=90.0,
+        description="the model's critical-state (large-strain) friction angle φ, degrees (optional): it bounds the "
+        "hourglass stresses by the strength q = M p, M = 6 sin φ/(3 − sin φ), as for the built-in models, and gives "
+        "the wall friction tan(2/3 φ) unless [contact] friction is set; without it the hourglass stresses are "
+        "bounded by the stiffness only and [contact] friction must be given",
+    )  # fmt: skip
+
+    kind: ClassVar[int] = 0
+    model_id: ClassVar[int] = -1
+
+    @model_validator(mode="after")
+    def _check_plugin(self) -> _Plugin:
+        n = len(self.state_variables)
+        if len(self.initial_values) != n:
+            raise ValueError(
+                f"initial_values has {len(self.initial_values)} values for {n} state_variables: give one each"
+            )
+        if len(set(self.state_variables)) != n:
+            raise ValueError("state_variables must have distinct names")
+        if self.void_ratio is not None and self.void_ratio > n:
+            raise ValueError(f"void_ratio = {self.void_ratio} is not one of the {n} state variables")
+        if len(self.tensor_groups()) > _pl.MAX_ROT:
+            raise ValueError(f"at most {_pl.MAX_ROT} tensor groups among the state variables")
+        path = Path(self.library).expanduser()
+        if not path.is_file():
+            raise ValueError(f"library {self.library!r} does not exist (from {Path.cwd()})")
+        self.__dict__["library"] = str(path.resolve())  # (no re-validation: sweeps run elsewhere)
+        return self
+
+    def strength_line(self) -> tuple[float, float]:
+        if self.friction_angle is None:
+            return 0.0, 1.0e300
+        sn = math.sin(math.radians(self.friction_angle))
+        return 6.0 * sn / (3.0 - sn), 0.0
+
+    def tensor_groups(self) -> tuple[int, ...]:
+        """0-based first state variable of each symmetric-tensor group (names ending _11 … _23)."""
+        tail = ("_11", "_22", "_33", "_12", "_13", "_23")
+        names = self.state_variables
+        return tuple(o for o in range(len(names) - 5) if all(names[o + d].endswith(tail[d]) for d in range(6)))
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """geocel's state of a plug-in cell: e, the subroutine's variables (and a UMAT's total strain)."""
+        extra = ("stran_11", "stran_22", "stran_33", "stran_12", "stran_13", "stran_23") if self.kind == _pl.UMAT else ()
+        return ("e", *self.state_variables, *extra)
+
+    def initial_state(self, e0: float, intergranular: str = "zero") -> np.ndarray:
+        state = np.zeros(len(self.state_names))
+        state[0] = e0
+        state[1 : 1 + len(self.initial_values)] = self.initial_values
+        for c in self.void_ratio_columns():
+            state[c] = e0
+        return state
+
+    def void_ratio_columns(self) -> tuple[int, ...]:
+        return (0,) if self.void_ratio is None else (0, self.void_ratio)
+
+    def wave_modulus_floor(self) -> float:
+        return 0.0
+
+    def to_array(self) -> np.ndarray:
+        """PROPS, then NaN padding (a subroutine that reads beyond NPROPS returns NaN, caught), then the floor of
+        the stable-step modulus."""
+        return np.array([*self.props, *([np.nan] * _pl.PROPS_PAD), self.wave_modulus_floor()], dtype=float)
+
+    def kernel_tag(self) -> np.ndarray:
+        from ..materials.plugin_library import load
+
+        address, _ = load(self.library, self.subroutine, tuple(self.compile_flags))
+        tag = np.zeros(_pl.TAG_LENGTH, dtype=np.int64)
+        tag[_pl.T_ADDRESS] = address
+        tag[_pl.T_NSTATEV] = len(self.state_variables)
+        tag[_pl.T_NPROPS] = len(self.props)
+        groups = self.tensor_groups() if self.kind == _pl.VUMAT else ()
+        tag[_pl.T_NROT] = len(groups)
+        tag[_pl.T_ROT : _pl.T_ROT + len(groups)] = groups
+        tag[_pl.T_NAME :] = np.frombuffer(self.name.ljust(80).encode("ascii", "replace")[:80], dtype=np.int64)
+        return tag.view(PLUGIN_TAG_DTYPES[self.kind])
+
+
+class Umat(_Plugin):
+    """An Abaqus/Standard UMAT: called once per cell and step with the increment; its DDSDDE gives the stable
+    step's P-wave modulus."""
+
+    model: Literal["umat"] = "umat"
+    subroutine: str = Field("umat", min_length=1, max_length=63, description="the subroutine's name")
+
+    kind: ClassVar[int] = _pl.UMAT
+
+
+class Vumat(_Plugin):
+    """An Abaqus/Explicit VUMAT: called with one cell per call (a block of cells in the element-test driver); the
+    stable step's P-wave modulus is estimated from its stress and strain increments, as Abaqus/Explicit does."""
+
+    model: Literal["vumat"] = "vumat"
+    subroutine: str = Field("vumat", min_length=1, max_length=63, description="the subroutine's name")
+    wave_modulus: float = Field(
+        ...,
+        gt=0.0,
+        description="P-wave modulus λ + 2μ of the model's stiffest elastic response, Pa: the stable step's modulus "
+        "before the increments tell it, and its lower bound",
+    )
+
+    kind: ClassVar[int] = _pl.VUMAT
+
+    def wave_modulus_floor(self) -> float:
+        return self.wave_modulus
+
+
+Material = Annotated[Elastic | MohrCoulomb | Tresca | Hypoplastic | Umat | Vumat, Field(discriminator="model")]
 
 #: named parameter sets (the ``preset`` key of ``[soil]``)
 PRESETS: dict[str, dict[str, Any]] = {
@@ -305,6 +453,8 @@ _CLASSES = {
     "mohr-coulomb": MohrCoulomb,
     "tresca": Tresca,
     "hypoplastic": Hypoplastic,
+    "umat": Umat,
+    "vumat": Vumat,
 }
 
 

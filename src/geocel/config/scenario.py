@@ -443,13 +443,14 @@ class Contact(_Table):
     )
 
     def friction_coefficient(self, material: MaterialModel) -> float:
-        """μ, -: ``friction`` if given, else tan(2/3 φ) with φ = φ_c (hypoplastic) or φ (Mohr–Coulomb)."""
+        """μ, -: ``friction`` if given, else tan(2/3 φ) with φ = φ_c (hypoplastic), φ (Mohr–Coulomb) or a UMAT's or
+        VUMAT's ``friction_angle``."""
         if self.friction is not None:
             return float(self.friction)
         if isinstance(material, Hypoplastic):
             phi = material.phi_c
-        elif isinstance(material, MohrCoulomb):
-            phi = material.friction_angle
+        elif isinstance(material, MohrCoulomb) or getattr(material, "friction_angle", None) is not None:
+            phi = material.friction_angle  # (Mohr–Coulomb's φ; a plug-in's, if given)
         else:
             raise ValueError(f"[contact].friction must be given for model = {material.model!r} (no φ)")
         return math.tan(math.radians(2.0 / 3.0 * phi))

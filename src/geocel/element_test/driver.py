@@ -259,7 +259,7 @@ def run_segments(
 ) -> ElementTestResult:
     """Drive one material point through control segments; records every step."""
     prm = material.to_array()
-    model = material.model_id
+    model = material.kernel_tag()
     stress = np.array(stress0, dtype=float)
     state = np.array(state0, dtype=float)
     eps = np.zeros(6)
@@ -277,7 +277,7 @@ def run_segments(
     rec_rho = [rho_of(state) if (is_hypo and material.intergranular_strain) else np.nan]
     flag_acc: list[int] = []
     notes: list[str] = []
-    work = np.empty(128)
+    work = np.empty(max(128, 2 * len(state0) + 128))
     modulus, _ = update_point(model, prm, stress.copy(), state.copy(), np.zeros(6), np.zeros(3), tol, 1, work)
     x = None
     nstep = 0
@@ -310,6 +310,7 @@ def run_segments(
             eps += x
             nstep += 1
             flag_acc.append(f)
+            _check_plugin(material, f, nstep)
             rec_eps.append(eps.copy())
             rec_sig.append(stress.copy())
             rec_e.append(state[0])
@@ -319,6 +320,23 @@ def run_segments(
             if seg.stop is not None and seg.stop(stress, eps):
                 break
     return _finish(kind, material, rec_eps, rec_sig, rec_e, rec_rho, flag_acc, notes)
+
+
+def _check_plugin(material: MaterialT, flags: int, step: int) -> None:
+    """Raise :class:`~geocel.materials.plugin_library.PluginError` (one line) if the UMAT/VUMAT failed in ``step``."""
+    if material.model not in ("umat", "vumat"):
+        return
+    from ..materials.plugin_library import PluginError, abort_requests, reset_aborts
+
+    who = f"the {material.model.upper()} {material.subroutine!r}"
+    count, message = abort_requests()
+    if count:
+        reset_aborts()
+        raise PluginError(f"element test step {step}: {who} called XIT/STDB_ABQERR to stop ({message or 'no message'})")
+    bad = flags & fl.PLUGIN_FAILURE
+    if bad:
+        bit = next(b for b in fl.PLUGIN_ADVICE if bad & b)
+        raise PluginError(f"element test step {step}: {who} {fl.PLUGIN_ADVICE[bit]}")
 
 
 def _finish(kind, material, rec_eps, rec_sig, rec_e, rec_rho, flag_acc, notes) -> ElementTestResult:

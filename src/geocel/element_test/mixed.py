@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..materials.kernels import update_point
+from ..materials.kernels import scratch_size, update_point
 
 _ZERO_SPIN = np.zeros(3)
 
@@ -48,7 +48,7 @@ def solve_increment(model, prm, stress, state, Ae, As, b, x, tol, nsub, max_iter
 
     Returns (converged, iterations, M, flags); on failure stress and state are left unchanged.
     """
-    work = np.empty(128)
+    work = np.empty(scratch_size(model))
     s_tmp = np.empty(6)
     st_tmp = np.empty(state.shape[0])
     r = np.empty(6)

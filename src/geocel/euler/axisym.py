@@ -43,6 +43,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..materials.kernels import scratch_size
 from ..materials.tensor import KERNEL_OPTIONS
 from .lagrange import (
     G_FROM_M,
@@ -473,7 +474,7 @@ def _update_rows_rz(
     which compiles faster); returns their (stable Δt, flat index of the cell governing it)."""
     dt0 = dt
     ncr, ncz = Vs.shape
-    dbuf = np.empty(6)
+    dbuf = np.empty(scratch_size(tag))
     wbuf = np.empty(3)
     best = np.inf
     best_c = -1

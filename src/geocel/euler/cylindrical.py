@@ -41,6 +41,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..materials.kernels import scratch_size
 from ..materials.tensor import KERNEL_OPTIONS
 from .lagrange import (
     G_FROM_M,
@@ -363,7 +364,7 @@ def _update_column(
     faster); returns the column's (stable Δt, flat index of the cell governing it)."""
     _, nt, nz = Vs.shape
     cij = i * nt + j
-    dbuf = np.empty(6)
+    dbuf = np.empty(scratch_size(tag))
     wbuf = np.empty(3)
     best = np.inf
     best_c = -1

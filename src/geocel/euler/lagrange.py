@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..materials.flags import SUBSTEP_LIMIT
-from ..materials.kernels import cell_update
+from ..materials.kernels import cell_update, scratch_size
 from ..materials.tensor import KERNEL_OPTIONS
 from .nonlocal_mean import box_weights, factor_from_mean, nonlocal_mean
 
@@ -521,11 +521,11 @@ def substeps(D, max_sub):
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
-def material_update(tag, prm, s2, st2, c, D, W, max_sub, nl, dbuf, wbuf):
+def material_update(tag, prm, s2, st2, c, D, W, max_sub, nl, ctx, dbuf, wbuf):
     """Cell c's soil-model update with the increments D, W in :func:`substeps` equal substeps (``nl``: its
-    non-local factor); returns (P-wave modulus bound, rule flags, SUBSTEP_LIMIT added at the cap)."""
+    non-local factor; ``ctx`` = (Δt, ρ, cell length) for a plug-in); returns (P-wave modulus bound, rule flags, SUBSTEP_LIMIT added at the cap)."""
     nsub = substeps(D, max_sub)
-    M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, nl, dbuf, wbuf)
+    M, f = cell_update(tag, prm, s2, st2, c, D, W, nsub, nl, ctx, dbuf, wbuf)
     if nsub == MAX_CELL_SUBSTEPS:
         f |= SUBSTEP_LIMIT
     return M, f
@@ -538,8 +538,8 @@ def cell_response(tag, prm, s2, st2, c, L, dt, max_sub, nl, dbuf, wbuf, mass, vs
     ``c`` (non-local factor ``nl``), the density and P-wave speed, the bulk-viscosity pressure and the cell's
     stable step for the length ``le``. Returns (M, flags, ρ, c_d, q, Δt_c); the geometry adds its hourglass modes."""
     D, W = increments(L, dt)
-    M, f = material_update(tag, prm, s2, st2, c, D, W, max_sub, nl, dbuf, wbuf)
     rho = mass / vs
+    M, f = material_update(tag, prm, s2, st2, c, D, W, max_sub, nl, (dt, rho, le), dbuf, wbuf)
     cd = np.sqrt(M / rho)
     tr = L[0] + L[4] + L[8]
     qn = bulk_viscosity(b1, b2, rho, cd, le, tr)
@@ -569,7 +569,7 @@ def _update_slabs(
     """The cells of the x slabs i0 … i1 − 1 of :func:`update_cells` (its parallel loop's body as a function of its
     own, which compiles faster); returns their (stable Δt, index of the cell governing it)."""
     _, ny, nz = Vs.shape
-    dbuf = np.empty(6)
+    dbuf = np.empty(scratch_size(tag))
     wbuf = np.empty(3)
     best = np.inf
     best_c = -1

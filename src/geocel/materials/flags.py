@@ -16,6 +16,11 @@ PLASTIC = 32  #: Mohr–Coulomb: plastic return mapping applied
 TENSION_CUTOFF = 64  #: Mohr–Coulomb: tension cut-off active
 SUBSTEP_LIMIT = 128  #: adaptive substepping hit its minimum step / maximum count
 BOUNDED = 256  #: hypoplasticity: stress beyond the base model's bounding surface, deviator scaled back onto it
+PLUGIN_NOT_FINITE = 512  #: a UMAT/VUMAT returned a NaN or inf stress, state variable or tangent (the run stops)
+PLUGIN_CUTBACK = 1024  #: a UMAT asked for a smaller step (PNEWDT < 1), which an explicit run cannot give (stops)
+PLUGIN_UNDEFINED_STATE = 2048  #: a VUMAT left a component of stateNew unwritten (the run stops)
+#: the flags that stop a run (a plug-in's failure): :func:`plugin_failure`
+PLUGIN_FAILURE = PLUGIN_NOT_FINITE | PLUGIN_CUTBACK | PLUGIN_UNDEFINED_STATE
 
 NAMES = {
     LOW_STRESS: "low_stress",
@@ -27,6 +32,19 @@ NAMES = {
     TENSION_CUTOFF: "tension_cutoff",
     SUBSTEP_LIMIT: "substep_limit",
     BOUNDED: "bounded",
+    PLUGIN_NOT_FINITE: "plugin_not_finite",
+    PLUGIN_CUTBACK: "plugin_cutback",
+    PLUGIN_UNDEFINED_STATE: "plugin_undefined_state",
+}
+
+#: what to tell a user about each failure of a plug-in
+PLUGIN_ADVICE = {
+    PLUGIN_NOT_FINITE: "returned a NaN or inf stress, state variable or DDSDDE: check props (the subroutine may "
+    "read more than NPROPS of them: geocel pads PROPS with NaN) and the initial state",
+    PLUGIN_CUTBACK: "asked for a smaller time increment (PNEWDT < 1), which an explicit step cannot give: lower "
+    "[solver] safety_factor or let the subroutine substep",
+    PLUGIN_UNDEFINED_STATE: "left a component of stateNew unwritten (geocel fills it with NaN before the call): "
+    "the VUMAT must write every state variable",
 }
 
 

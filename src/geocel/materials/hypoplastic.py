@@ -94,7 +94,8 @@ def floor_tuple(pmin, T):
     b1 = -t1
     b2 = -t2
     i2 = b0 * b1 + b1 * b2 + b0 * b2 - t3 * t3 - t4 * t4 - t5 * t5
-    i3 = b0 * (b1 * b2 - t5 * t5) - t3 * (t3 * b2 - t5 * t4) + t4 * (t3 * t5 - b1 * t4)
+    # det(−T): the off-diagonals of −T are −t3, −t4, −t5 (the triple product's sign matters)
+    i3 = b0 * (b1 * b2 - t5 * t5) - t3 * (t3 * b2 + t5 * t4) - t4 * (t3 * t5 + b1 * t4)
     if p >= pmin and i2 > 0.0 and i3 > 0.0:
         return T, 0
     return (-pmin, -pmin, -pmin, 0.0, 0.0, 0.0), fl.LOW_STRESS

@@ -73,7 +73,8 @@ def all_principal_negative(a, tol):
     b2 = -a[2] - tol
     i1 = b0 + b1 + b2
     i2 = b0 * b1 + b1 * b2 + b0 * b2 - a[3] * a[3] - a[4] * a[4] - a[5] * a[5]
-    i3 = b0 * (b1 * b2 - a[5] * a[5]) - a[3] * (a[3] * b2 - a[5] * a[4]) + a[4] * (a[3] * a[5] - b1 * a[4])
+    # det(b): the off-diagonals of b are −a12, −a13, −a23 (the triple product's sign matters)
+    i3 = b0 * (b1 * b2 - a[5] * a[5]) - a[3] * (a[3] * b2 + a[5] * a[4]) - a[4] * (a[3] * a[5] + b1 * a[4])
     return i1 > 0.0 and i2 > 0.0 and i3 > 0.0
 
 

@@ -229,7 +229,8 @@ class CompositeField(EulerianField):
         if self.contact is not None:
             self.contact.after_remap()
         for lvl in self.levels:
-            void_ratio_from_density(lvl.Vs, lvl.volume, lvl.mass, lvl.state, self.grain_density)
+            for col in self.material.void_ratio_columns():
+                void_ratio_from_density(lvl.Vs, lvl.volume, lvl.mass, lvl.state, self.grain_density, col)
         self.energy["remap_kinetic_loss"] += ke_before - self.kinetic_energy()
         self.inflow_mass = sum(lvl.inflow_mass for lvl in self.levels)
         self.refill_offset = self.levels[0].refill_offset

@@ -31,7 +31,7 @@ from ..euler.lagrange import (
 from ..euler.nonlocal_mean import reaches_a_neighbour
 from ..euler.remap import remap
 from ..grid import Grid
-from ..materials.kernels import model_tag
+from ..materials import flags as fl
 from ..materials.kernels import update_cells as material_update_cells
 from ..materials.tensor import KERNEL_OPTIONS
 
@@ -91,15 +91,25 @@ def runaway_nodes(
 class InstabilityError(RuntimeError):
     """The explicit integration became unstable; ``diagnostic`` says where, when and which quantity."""
 
+    #: the run's status when this stops it
+    status = "unstable"
+
     def __init__(self, message: str, diagnostic: dict):
         super().__init__(message)
         self.diagnostic = diagnostic
 
 
+class PluginFailure(InstabilityError):
+    """The UMAT/VUMAT failed in a step (non-finite results, PNEWDT < 1, state left undefined, XIT): the run stops
+    in the last complete state, as after an instability."""
+
+    status = "plugin_failed"
+
+
 @njit(parallel=True, **KERNEL_OPTIONS)
-def void_ratio_from_density(Vs, volume, mass, state, grain_density):
-    """e = ρ_s V_s / m − 1 in every soil cell (e follows the conserved mass and soil volume); any geometry: the
-    cell arrays are taken flat (C-contiguous, the state's last axis its components)."""
+def void_ratio_from_density(Vs, volume, mass, state, grain_density, col=0):
+    """e = ρ_s V_s / m − 1 in every soil cell (e follows the conserved mass and soil volume), into state column
+    ``col``; any geometry: the cell arrays are taken flat (C-contiguous, the state's last axis its components)."""
     n = Vs.size
     vs = Vs.reshape(n)
     vol = volume.reshape(n)
@@ -107,7 +117,7 @@ def void_ratio_from_density(Vs, volume, mass, state, grain_density):
     st = state.reshape((n, state.shape[-1]))
     for c in prange(n):
         if vs[c] > PHI_MIN * vol[c] and m[c] > 0.0:
-            st[c, 0] = grain_density * vs[c] / m[c] - 1.0
+            st[c, col] = grain_density * vs[c] / m[c] - 1.0
 
 
 def node_spacing(h: np.ndarray) -> np.ndarray:
@@ -246,7 +256,7 @@ class EulerianField:
         #: the soil's strength line in triaxial compression, q_f = M_f p + c_f (bounds the hourglass stresses)
         self._strength = self.material.strength_line()
         self._max_substep = self.material.substep_strain(self.settings.soil_substep)
-        self.model_tag = model_tag(self.model_id)
+        self.model_tag = self.material.kernel_tag()
         self.prm = self.material.to_array()
         self.gravity = self.settings.gravity / self.scaling
         self.grain_density = self.material.grain_density * self.scaling
@@ -317,7 +327,17 @@ class EulerianField:
         st = self.state[soil][:, : self.nstate].copy()
         M = np.empty(n)
         f = np.empty(n, dtype=np.int64)
-        material_update_cells(self.model_id, self.prm, s, st, np.zeros((n, 6)), np.zeros((n, 3)), 0.0, M, f)
+        material_update_cells(self.model_tag, self.prm, s, st, np.zeros((n, 6)), np.zeros((n, 3)), 0.0, M, f)
+        bad = f & fl.PLUGIN_FAILURE
+        if bad.any():
+            from ..materials.plugin_library import PluginError
+
+            c = int(np.flatnonzero(bad)[0])
+            bit = next(b for b in fl.PLUGIN_ADVICE if bad[c] & b)
+            raise PluginError(
+                f"at the initial state (a zero increment), soil cell {c} of {n}: the {self.material.model.upper()} "
+                f"{fl.PLUGIN_ADVICE[bit]}"
+            )
         out[soil] = M
         return out
 
@@ -446,7 +466,8 @@ class EulerianField:
         self.stress[..., 2] = szz
         self.state[...] = 0.0
         self.state[..., : self.nstate] = self.material.initial_state(float(layers[0][1]), intergranular)
-        self.state[..., 0] = e0
+        for col in self.material.void_ratio_columns():
+            self.state[..., col] = e0
         self.initialise()
 
     def initialise(self) -> None:
@@ -579,7 +600,8 @@ class EulerianField:
         self.refill_bottom()
         if contact is not None:
             contact.after_remap()
-        void_ratio_from_density(self.Vs, self.volume, self.mass, self.state, self.grain_density)
+        for col in self.material.void_ratio_columns():
+            void_ratio_from_density(self.Vs, self.volume, self.mass, self.state, self.grain_density, col)
         self.energy["remap_kinetic_loss"] += ke_before - self._kinetic_energy()
         self.lost_mass += lost
         self.capped_volume += capped

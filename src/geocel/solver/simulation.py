@@ -37,8 +37,9 @@ from ..config.scenario import Scenario, ScenarioError, load_scenario
 from ..io.checkpoint import CheckpointError, load_latest_checkpoint, save_checkpoint
 from ..io.rundir import RunDirectory
 from ..materials import flags as fl
+from ..materials.plugin_library import abort_requests, reset_aborts
 from .backend import Backend, build_backend
-from .field import InstabilityError
+from .field import InstabilityError, PluginFailure
 from .output import AnyOf, Callback, PenetrationInterval, Schedule, TimeInterval
 from .profiles import ProfilesOutput
 from .quasi_static import inertia_verdict as _inertia_verdict
@@ -135,6 +136,8 @@ class Simulation:
         self.status = "created"
         self.wall_time = 0.0
         self.rule_counts: dict[str, int] = dict.fromkeys(fl.NAMES.values(), 0)
+        #: the soil model is a UMAT/VUMAT: its failures stop the run (:meth:`_check_plugin`)
+        self._plugin = scenario.soil.material.model in ("umat", "vumat")
         self._rule_tally = np.zeros(len(fl.NAMES), dtype=np.int64)  # (one step's, :meth:`_count_rules`)
         self.governing = {"body": "soil", "element": None, "dt": None}
         self._substeps = 1
@@ -611,7 +614,7 @@ class Simulation:
             wall = self.elapsed()
             self._restore(self._good)
             self._apply_meta(self._good_meta)
-            self.status = "unstable"
+            self.status = err.status
             self.diagnostic = {
                 **err.diagnostic,
                 "message": str(err),
@@ -765,7 +768,39 @@ class Simulation:
     def _count_rules(self) -> None:
         tally = self._rule_tally
         tally[:] = 0
-        fl.tally(self.backend.rule_flags().reshape(-1), tally)
+        flags = self.backend.rule_flags().reshape(-1)
+        fl.tally(flags, tally)
         for b, name in enumerate(fl.NAMES.values()):
             if tally[b]:
                 self.rule_counts[name] += int(tally[b])
+        if self._plugin:
+            self._check_plugin(flags)
+
+    def _check_plugin(self, flags: np.ndarray) -> None:
+        """Stop the run (back to the last complete state) when the UMAT/VUMAT failed in this step: one line naming
+        the cell, the step, what it did and what to do."""
+        f = self.field
+        mat = self.scenario.soil.material
+        who = f"the {mat.model.upper()} {mat.subroutine!r} of {Path(mat.library).name}"
+        count, message = abort_requests()
+        if count:
+            reset_aborts()
+            raise PluginFailure(
+                f"step {f.step_count} (t = {f.time:.6g} s): {who} called XIT/STDB_ABQERR to stop ({message or 'no message'}); "
+                "the last complete state is kept",
+                {"step": f.step_count, "time": f.time, "quantity": "plugin_abort", "index": -1},
+            )
+        bad = np.flatnonzero(flags & fl.PLUGIN_FAILURE)
+        if bad.size == 0:
+            return
+        c = int(bad[0])
+        bit = next(b for b in fl.PLUGIN_ADVICE if flags[c] & b)
+        where = ""
+        if f.flags.size == flags.size:  # (one grid: the cell's centre)
+            idx = np.unravel_index(c, f.flags.shape)
+            where = " at (" + ", ".join(f"{a[i]:.4g}" for a, i in zip(f._cell_axes(), idx, strict=False)) + ") m"
+        raise PluginFailure(
+            f"step {f.step_count} (t = {f.time:.6g} s), cell {c} (NOEL {c + 1}){where} and {bad.size - 1} more: {who} "
+            f"{fl.PLUGIN_ADVICE[bit]}; the last complete state is kept",
+            {"step": f.step_count, "time": f.time, "quantity": fl.NAMES[bit], "index": c},
+        )

@@ -215,7 +215,7 @@ class FieldsOutput(Callback):
             self.pvd.drop_after(sim.time)
 
     def due_at_end(self, sim: Simulation) -> bool:
-        return super().due_at_end(sim) or sim.status == "unstable"
+        return super().due_at_end(sim) or sim.status in ("unstable", "plugin_failed")
 
     def reset(self) -> None:
         super().reset()
