@@ -22,6 +22,7 @@ from geocel.element_test.driver import DELTA_COLUMNS, element_test
 from geocel.io.history import read_history
 from geocel.materials import hypoplastic as hp
 from geocel.materials.kernels import update_point
+from geocel.materials.plugin import T_NAME
 from geocel.materials.plugin_library import PluginError, find_compiler, load
 from geocel.solver.simulation import Simulation
 
@@ -219,21 +220,26 @@ def pile_scenario(soil: dict, name: str) -> dict:
     }  # fmt: skip
 
 
-def test_hypoplastic_umat_jacks_a_pile_in_rz_as_the_builtin(tmp_path):
-    """The preset's sand (local) as a UMAT, in r–z in the pile's frame: q_b and q_s step for step."""
-    ref, plug = hypo_pair("umat", tol=0.0, max_sub=0.1 * 1e-4)
+@pytest.mark.parametrize("kind", ["umat", "vumat"])
+def test_hypoplastic_plugin_jacks_a_pile_in_rz_as_the_builtin(tmp_path, kind):
+    """The preset's sand (local) as a UMAT, in r–z in the pile's frame: q_b and q_s step for step. The VUMAT
+    returns its P-wave modulus in STATEV(8) (``wave_modulus_state``): the cells' modulus sets the stable step, the
+    hourglass stiffness and the bulk viscosity, and the estimate from the increments is not the built-in's bound."""
+    ref, plug = hypo_pair(kind, tol=0.0, max_sub=0.1 * 1e-4)
     R = ref.R
     init = [0.62, 0.0, 0.0, -R, 0.0, 0.0, 0.0]  # δ fully mobilised in vertical compression, as the built-in's
     # φ_c: the hourglass stresses' strength bound as the built-in's
     soil_p = {**plug.model_dump(), "initial_values": init, "friction_angle": ref.phi_c}
+    if kind == "vumat":
+        soil_p.update(state_variables=[*plug.state_variables, "M"], initial_values=[*init, 0.0], wave_modulus_state=8)
     runs = {}
-    for name, soil in (("builtin", {"preset": "fraction-e"}), ("umat", soil_p)):
+    for name, soil in (("builtin", {"preset": "fraction-e"}), (kind, soil_p)):
         sim = Simulation(scenario_from_dict(pile_scenario(soil, name)), out=tmp_path / name, progress=False,
                          write_fields=False)  # fmt: skip
         s = sim.run()
         assert s["status"] == "finished"
         runs[name] = read_history(tmp_path / name / "history.csv")
-    a, b = runs["builtin"], runs["umat"]
+    a, b = runs["builtin"], runs[kind]
     assert len(a) == len(b) > 5
     late = a["penetration"] > 0.005
     assert rel(b["qb"][late], a["qb"][late]) < 1e-8
@@ -316,7 +322,7 @@ def test_plugin_state_and_props_layout():
     prm = plug.to_array()
     assert prm.size == hp.N_PARAMS + 2 + 16 + 1 and np.isnan(prm[hp.N_PARAMS + 2 : -1]).all()
     tag = plug.kernel_tag()
-    assert tag.dtype == np.int64 and tag[0] != 0 and bytes(tag[8:].view(np.uint8)).decode() == "SOIL".ljust(80)
+    assert tag.dtype == np.int64 and tag[0] != 0 and bytes(tag[T_NAME:].view(np.uint8)).decode() == "SOIL".ljust(80)
 
 
 # --- every geometry ------------------------------------------------------------------------------------------------

@@ -1013,13 +1013,15 @@ void vumat_(int *nblock, int *ndir, int *nshr, int *nstatev, int *nfieldv, int *
             q[i] = stateOld[at(b, nb, 1 + vu[i])];     /* co-rotated by geocel (co_rotated_state = [2]) */
         }
         e = stateOld[at(b, nb, 0)];
-        hypo_update(props, T, &e, q, deps, &M); /* M: not the VUMAT's business (geocel estimates it) */
+        hypo_update(props, T, &e, q, deps, &M); /* M: geocel estimates it, or reads it from STATEV(8) */
         for (int i = 0; i < 6; i++) {
             stressNew[at(b, nb, vu[i])] = T[i];
             stateNew[at(b, nb, 1 + vu[i])] = q[i];
         }
         stateNew[at(b, nb, 0)] = e;
-        for (int k = HP_NSTATE; k < ns; k++) /* any further state variables: unchanged */
+        if (ns > HP_NSTATE) /* STATEV(8), if there: M, for geocel's wave_modulus_state */
+            stateNew[at(b, nb, HP_NSTATE)] = M;
+        for (int k = HP_NSTATE + 1; k < ns; k++) /* any further state variables: unchanged */
             stateNew[at(b, nb, k)] = stateOld[at(b, nb, k)];
     }
 }

@@ -367,6 +367,8 @@ class _Plugin(_Material):
         groups = self.tensor_groups() if self.kind == _pl.VUMAT else ()
         tag[_pl.T_NROT] = len(groups)
         tag[_pl.T_ROT : _pl.T_ROT + len(groups)] = groups
+        ms = getattr(self, "wave_modulus_state", None)
+        tag[_pl.T_MSTATE] = -1 if ms is None else ms - 1
         tag[_pl.T_NAME :] = np.frombuffer(self.name.ljust(80).encode("ascii", "replace")[:80], dtype=np.int64)
         return tag.view(PLUGIN_TAG_DTYPES[self.kind])
 
@@ -394,7 +396,21 @@ class Vumat(_Plugin):
         "before the increments tell it, and its lower bound",
     )
 
+    wave_modulus_state: int | None = Field(
+        None,
+        ge=1,
+        description="the state variable (1-based) in which the VUMAT returns its P-wave modulus (its stiffest "
+        "response, Pa), used instead of the estimate from the increments (optional; a geocel extension)",
+    )
+
     kind: ClassVar[int] = _pl.VUMAT
+
+    @model_validator(mode="after")
+    def _check_modulus_state(self) -> Vumat:
+        n = len(self.state_variables)
+        if self.wave_modulus_state is not None and self.wave_modulus_state > n:
+            raise ValueError(f"wave_modulus_state = {self.wave_modulus_state} is not one of the {n} state variables")
+        return self
 
     def wave_modulus_floor(self) -> float:
         return self.wave_modulus

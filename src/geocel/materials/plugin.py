@@ -36,7 +36,8 @@ T_NPROPS = 2  #: NPROPS
 T_NROT = 3  #: VUMAT: the number of tensor groups among the state variables (co-rotated here)
 T_ROT = 4  #: … and their first (0-based) state variables, up to MAX_ROT of them (stored in geocel's order)
 MAX_ROT = 4
-T_NAME = T_ROT + MAX_ROT  #: CMNAME, 80 bytes, blank-padded (10 int64)
+T_MSTATE = T_ROT + MAX_ROT  #: VUMAT: the state variable (0-based) holding the model's P-wave modulus, or −1
+T_NAME = T_MSTATE + 1  #: CMNAME, 80 bytes, blank-padded (10 int64)
 TAG_LENGTH = T_NAME + 10
 
 #: NaN props after the user's NPROPS: a subroutine reading beyond them returns NaN, which is caught
@@ -297,9 +298,10 @@ def umat_cell(tag, prm, stress, state, i, D, W, ctx, b):
 # --- VUMAT ----------------------------------------------------------------------------------------------------
 @njit(**KERNEL_OPTIONS)
 def vumat_cell(tag, prm, stress, state, i, D, W, ctx, b):
-    """Row i through the VUMAT of ``tag`` as a block of one point (arguments as :func:`umat_cell`). M is
-    estimated from the increments as Abaqus/Explicit does, K + 4G/3 with 3K = Δσ_kk/Δε_kk and
-    2G = Δs:Δe/Δe:Δe, bounded below by the floor after the props (``P_WAVE_FLOOR_OFFSET``)."""
+    """Row i through the VUMAT of ``tag`` as a block of one point (arguments as :func:`umat_cell`). M is the
+    state variable ``T_MSTATE`` if the scenario names one, else estimated from the increments as Abaqus/Explicit
+    does, K + 4G/3 with 3K = Δσ_kk/Δε_kk and 2G = Δs:Δe/Δe:Δe (each where the increment resolves it); bounded
+    below by the floor after the props (``P_WAVE_FLOOR_OFFSET``)."""
     ns = np.int64(tag[T_NSTATEV])  # (a VUMAT's tag is uint64)
     npr = np.int64(tag[T_NPROPS])
     so = _V_STATE_OLD
@@ -391,10 +393,14 @@ def vumat_cell(tag, prm, stress, state, i, D, W, ctx, b):
         es += g * de * ds
     dd = ee + dtr * dtr / 3.0
     M = 0.0
-    if dtr * dtr > 1.0e-12 * dd:
-        M += str_ / (3.0 * dtr)
-    if ee > 1.0e-12 * dd and ee > 0.0:
-        M += 2.0 / 3.0 * es / ee
+    ms = np.int64(tag[T_MSTATE])
+    if ms >= 0:  # the model's own modulus
+        M = b[sn + ms]
+    else:  # each part only where the increment resolves it (a tiny Δε_kk would make K noise)
+        if dtr * dtr > 1.0e-6 * dd:
+            M += str_ / (3.0 * dtr)
+        if ee > 1.0e-6 * dd:
+            M += 2.0 / 3.0 * es / ee
     M = max(M, prm[npr + P_WAVE_FLOOR_OFFSET])
     for k in range(6):
         stress[i, k] = S[k]
