@@ -356,3 +356,31 @@ def test_elastic_umat_runs_in_3d_as_the_builtin(tmp_path, layout):
     for key in ("base_force", "shaft_force"):
         x, y = a[key].to_numpy()[1:], b[key].to_numpy()[1:]  # (row 0: before the first step)
         assert np.isfinite(x).all() and np.abs(x).max() > 0 and rel(y, x) < 1e-9, key
+
+
+def test_state_variables_can_be_given_per_layer():
+    """``[[soil.layers]] initial_values`` overrides ``[soil] initial_values`` in its layer; the void-ratio variable
+    follows each layer's e0; a built-in model or a wrong length is refused in one line."""
+    from geocel.config.scenario import ScenarioError
+    from geocel.solver.backend import build_backend
+
+    soil = {"model": "umat", "library": str(PLUGINS / "elastic.c"), "props": [40e6, 0.28],
+            "state_variables": ["e", "tag", "other"], "initial_values": [0.0, 1.0, 7.0], "void_ratio": 1}  # fmt: skip
+    d = pile_scenario(soil, "layers")
+    d["soil"]["layers"] = [{"top": 0.0, "e0": 0.62}, {"top": 0.5, "e0": 0.7, "initial_values": [0.0, 2.0, 8.0]}]
+    d["contact"] = {"friction": 0.3}
+    f = build_backend(scenario_from_dict(d)).field
+    soil_cells = f.Vs > 0.5 * f.volume
+    depth = np.broadcast_to(-f.grid.zc, f.Vs.shape)
+    deep = soil_cells & (depth >= 0.5)
+    shallow = soil_cells & (depth < 0.5)
+    assert deep.any() and shallow.any()
+    assert (f.state[deep][:, 2] == 2.0).all() and (f.state[shallow][:, 2] == 1.0).all()
+    assert (f.state[deep][:, 3] == 8.0).all() and (f.state[shallow][:, 3] == 7.0).all()
+    assert np.allclose(f.state[deep][:, 1], 0.7) and np.allclose(f.state[shallow][:, 1], 0.62)
+    d["soil"]["layers"][1]["initial_values"] = [1.0]
+    with pytest.raises(ScenarioError, match="give one value for each of the 3 state_variables"):
+        scenario_from_dict(d)
+    d["soil"] = {"preset": "fraction-e", "layers": [{"top": 0.0, "e0": 0.62, "initial_values": [1.0]}]}
+    with pytest.raises(ScenarioError, match="only for a UMAT or VUMAT"):
+        scenario_from_dict(d)

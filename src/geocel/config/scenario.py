@@ -222,6 +222,11 @@ class Layer(_Table):
     relative_density: float | None = Field(
         None, ge=0.0, le=1.0, description="relative density I_D (0 loosest … 1 densest), -"
     )
+    initial_values: list[float] | None = Field(
+        None,
+        description="a UMAT's or VUMAT's initial state variables in this layer, one per [soil] state_variables "
+        "(default: [soil] initial_values)",
+    )
 
     @model_validator(mode="after")
     def _one_of(self) -> Layer:
@@ -291,6 +296,14 @@ class Soil(_Table):
                     ("layers", i, "top"), tops[i], f"tops must increase strictly (previous {tops[i - 1]} m)"
                 )
         for i, layer in enumerate(self.layers):
+            if layer.initial_values is not None:
+                names = getattr(self.material, "state_variables", None)
+                if names is None:
+                    raise _invalid(("layers", i, "initial_values"), layer.initial_values,
+                                   f"only for a UMAT or VUMAT, not model = {self.material.model!r}")  # fmt: skip
+                if len(layer.initial_values) != len(names):
+                    raise _invalid(("layers", i, "initial_values"), layer.initial_values,
+                                   f"give one value for each of the {len(names)} state_variables")  # fmt: skip
             if layer.relative_density is not None and not isinstance(self.material, Hypoplastic):
                 raise _invalid(
                     ("layers", i, "relative_density"),

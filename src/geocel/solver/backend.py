@@ -29,7 +29,7 @@ from ..bodies.geometry import pile_mesh
 from ..bodies.pile import RigidPile, head_velocity
 from ..euler.lagrange import PHI_MIN
 from ..io.vtk import write_rectilinear, write_rectilinear_rz, write_structured, write_unstructured_hex
-from .build import build_field, build_pile_body, pile_geometry, rz_grid, soil_layers, solver_settings
+from .build import build_field, build_pile_body, initialise_geostatic, pile_geometry, rz_grid, solver_settings
 from .field import node_fraction, soil_fraction_of_cells
 
 if TYPE_CHECKING:
@@ -457,9 +457,7 @@ class AxisymmetricBackend(Backend):
             grid, mat, scaling=scenario.scaling.mass_gravity, settings=solver_settings(scenario)
         )
         f.fill_below(0.0)
-        f.geostatic(
-            soil_layers(scenario), k0=scenario.initial.k0, intergranular=scenario.initial.intergranular_strain
-        )
+        initialise_geostatic(f, scenario)
         self.field = f
         #: jacking force on the whole pile in the last step (N, + compression) and the jack's work (J)
         self.head_force = 0.0
@@ -680,7 +678,7 @@ class CylindricalBackend(AxisymmetricBackend):
         f = CylindricalField(grid, scenario.soil.material, scaling=scenario.scaling.mass_gravity,
                              settings=solver_settings(scenario))  # fmt: skip
         f.fill_below(0.0)
-        f.geostatic(soil_layers(scenario), k0=scenario.initial.k0, intergranular=scenario.initial.intergranular_strain)
+        initialise_geostatic(f, scenario)
         self.field = f
         self.head_force = 0.0
         self.jack_work = 0.0

@@ -34,6 +34,17 @@ def soil_layers(scenario: Scenario) -> list[tuple[float, float]]:
     return [(layer.top, scenario.soil.void_ratio_of(layer, mat)) for layer in scenario.soil.layers]
 
 
+def initialise_geostatic(field, scenario: Scenario) -> None:
+    """The scenario's layers, K0 and initial intergranular strain (and a plug-in's state variables per layer) as
+    the field's geostatic state (:meth:`geocel.solver.field.EulerianField.geostatic`); any geometry."""
+    field.geostatic(
+        soil_layers(scenario),
+        k0=scenario.initial.k0,
+        intergranular=scenario.initial.intergranular_strain,
+        layer_values=[layer.initial_values for layer in scenario.soil.layers],
+    )
+
+
 def pile_geometry(scenario: Scenario) -> PileGeometry | None:
     p = scenario.pile
     if p is None:
@@ -122,8 +133,7 @@ def build_field(scenario: Scenario, grid: Grid | None = None) -> SoilField | Com
             soil, pile, scenario.contact.friction_coefficient(mat), scenario.contact.formulation
         )
         field.contact.remove_soil_inside()  # a pile wished in place to its initial embedment
-    layers = [(layer.top, scenario.soil.void_ratio_of(layer, mat)) for layer in scenario.soil.layers]
-    field.geostatic(layers, k0=scenario.initial.k0, intergranular=scenario.initial.intergranular_strain)
+    initialise_geostatic(field, scenario)
     if scenario.domain.frame == "pile":
         field.contact.frame_field = field  # (nested: every level moves)
         field.contact.follow_pile()

@@ -68,12 +68,16 @@ class CompositeField(EulerianField):
             lvl.fill_below(surface)
 
     def geostatic(
-        self, layers: list[tuple[float, float]], k0: float, intergranular: str = "vertical"
+        self,
+        layers: list[tuple[float, float]],
+        k0: float,
+        intergranular: str = "vertical",
+        layer_values: list[list[float] | None] | None = None,
     ) -> None:
         """The geostatic state of :meth:`SoilField.geostatic` on every level (each column is in equilibrium by
         itself, so the interfaces are too); the empty-node threshold of the finest level for all."""
         for lvl in self.levels:
-            lvl.geostatic(layers, k0, intergranular)
+            lvl.geostatic(layers, k0, intergranular, layer_values)
         tiny = min(lvl.mass_tiny for lvl in self.levels)
         for lvl in self.levels:
             lvl.mass_tiny = tiny

@@ -433,7 +433,13 @@ class EulerianField:
         frac = np.clip((surface - self.grid.z[:-1]) / self.hz, 0.0, 1.0)
         self.Vs[...] = self.volume * frac * self._active_cells()
 
-    def geostatic(self, layers: list[tuple[float, float]], k0: float, intergranular: str = "vertical") -> None:
+    def geostatic(
+        self,
+        layers: list[tuple[float, float]],
+        k0: float,
+        intergranular: str = "vertical",
+        layer_values: list[list[float] | None] | None = None,
+    ) -> None:
         """Void ratio per layer ``(top below surface, e0)`` (surface z = 0), densities, and the geostatic stress in
         discrete equilibrium with the lumped nodal gravity forces, so the soil is at rest from the first step.
 
@@ -466,6 +472,13 @@ class EulerianField:
         self.stress[..., 2] = szz
         self.state[...] = 0.0
         self.state[..., : self.nstate] = self.material.initial_state(float(layers[0][1]), intergranular)
+        if layer_values is not None and any(v is not None for v in layer_values):
+            # a plug-in's state variables given per layer (``[[soil.layers]] initial_values``)
+            rows = np.tile(self.state.reshape(-1, self.state.shape[-1])[0, 1 : self.nstate], (g.nz, 1))
+            for (top, _), values in zip(layers, layer_values, strict=True):
+                if values is not None:
+                    rows[-g.zc >= top, : len(values)] = values
+            self.state[..., 1 : self.nstate] = rows
         for col in self.material.void_ratio_columns():
             self.state[..., col] = e0
         self.initialise()
