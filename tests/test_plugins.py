@@ -248,8 +248,8 @@ def test_hypoplastic_plugin_jacks_a_pile_in_rz_as_the_builtin(tmp_path, kind):
 
 # --- failures, each reported in one line -------------------------------------------------------------------------
 def test_missing_library_symbol_and_compiler_are_one_line_errors(tmp_path, monkeypatch):
-    with pytest.raises(ValueError, match="does not exist"):
-        Umat(library=str(tmp_path / "nothere.so"), props=[1.0])
+    with pytest.raises(PluginError, match=r"the UMAT/VUMAT library .*nothere.so does not exist"):
+        Umat(library=str(tmp_path / "nothere.so"), props=[1.0]).kernel_tag()
     with pytest.raises(PluginError, match="has no subroutine 'umat_typo'"):
         load(PLUGINS / "elastic.c", "umat_typo")
     with pytest.raises(ValueError, match="initial_values has 1 values for 2 state_variables"):
@@ -384,3 +384,18 @@ def test_state_variables_can_be_given_per_layer():
     d["soil"] = {"preset": "fraction-e", "layers": [{"top": 0.0, "e0": 0.62, "initial_values": [1.0]}]}
     with pytest.raises(ScenarioError, match="only for a UMAT or VUMAT"):
         scenario_from_dict(d)
+
+
+def test_the_cli_reports_a_missing_library_in_one_line(tmp_path):
+    import tomli_w
+    from typer.testing import CliRunner
+
+    from geocel.cli import app
+
+    d = pile_scenario(_mis("umat_nan"), "cli")
+    d["soil"]["library"] = str(tmp_path / "nothere.c")
+    (tmp_path / "s.toml").write_bytes(tomli_w.dumps(d).encode())
+    res = CliRunner().invoke(app, ["run", str(tmp_path / "s.toml"), "--out", str(tmp_path / "run")])
+    assert res.exit_code == 2
+    assert "error: the UMAT/VUMAT library" in res.output and "nothere.c does not exist" in res.output
+    assert "Traceback" not in res.output

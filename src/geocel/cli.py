@@ -654,9 +654,10 @@ def _run_simulation(sim, again: list[str] | None, restart: bool, allow_changes: 
     was kept and how to continue (exit 130)."""
     from .config.fingerprint import ScenarioMismatchError
     from .io.checkpoint import CheckpointError
+    from .materials.plugin_library import PluginError
 
     try:
-        with user_errors(CheckpointError, ScenarioMismatchError, OSError):
+        with user_errors(CheckpointError, ScenarioMismatchError, OSError, PluginError):
             summary = sim.run(restart=restart, allow_changes=allow_changes)
     except KeyboardInterrupt:
         _print_notes(sim)

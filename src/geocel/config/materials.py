@@ -313,10 +313,9 @@ class _Plugin(_Material):
             raise ValueError(f"void_ratio = {self.void_ratio} is not one of the {n} state variables")
         if len(self.tensor_groups()) > _pl.MAX_ROT:
             raise ValueError(f"at most {_pl.MAX_ROT} tensor groups among the state variables")
-        path = Path(self.library).expanduser()
-        if not path.is_file():
-            raise ValueError(f"library {self.library!r} does not exist (from {Path.cwd()})")
-        self.__dict__["library"] = str(path.resolve())  # (no re-validation: sweeps run elsewhere)
+        # absolute, so that a run's config.toml names it from anywhere; its existence is checked when it is loaded
+        # (a finished run's scenario stays readable without it)
+        self.__dict__["library"] = str(Path(self.library).expanduser().resolve())
         return self
 
     def strength_line(self) -> tuple[float, float]:

@@ -29,8 +29,9 @@ _FLAGS = {"c": ["-O2", "-fPIC", "-shared"], "fortran": ["-O2", "-fPIC", "-shared
 _LOADED: dict[str, ctypes.CDLL] = {}
 
 
-class PluginError(RuntimeError):
-    """A UMAT/VUMAT library cannot be found, built or loaded, or its subroutine failed (one line)."""
+class PluginError(ValueError):
+    """A UMAT/VUMAT library cannot be found, built or loaded, or its subroutine failed (one line; a user's error, as
+    a bad scenario value)."""
 
 
 def cache_dir() -> Path:
