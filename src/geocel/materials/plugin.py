@@ -253,12 +253,11 @@ def umat_cell(tag, prm, stress, state, i, D, W, ctx, b):
     _identity(b, _U_DFGRD1)
     for k in range(ns):
         b[_U_STATEV + k] = state[i, 1 + k]
-    base = data_address(b)
-    ints = base + 8 * _U_INTS
+    f8 = data_address(b)  # the scratch's first float64; its slots are passed by address
+    ints = f8 + 8 * _U_INTS
     for k, val in enumerate((3, 3, 6, ns, npr, i + 1, 1, 1, 1, 1, 1, 1, 1, 1)):
         store_int32(ints + 4 * k, val)
     name = data_address(tag) + 8 * T_NAME
-    f8 = base + 8 * 0
     call_subroutine(
         np.int64(tag[T_ADDRESS]),
         (
