@@ -334,15 +334,17 @@ def _three_d(layout: str) -> dict:
     if layout == "cylindrical":
         d["domain"].update(theta_cells=2)
         d["domain"].pop("fine_size")
+    if layout == "nested":
+        d["domain"].update(fine_radius=0.5, radius=1.0, frame="laboratory")
     d["contact"] = {"friction": 0.3}
     d["loading"]["penetration"] = 0.01
     d["output"]["history_every"] = 0.002
     return d
 
 
-@pytest.mark.parametrize("layout", ["tensor", "cylindrical"])
+@pytest.mark.parametrize("layout", ["tensor", "nested", "cylindrical"])
 def test_elastic_umat_runs_in_3d_as_the_builtin(tmp_path, layout):
-    """The same plug-in call in the Cartesian and the cylindrical grids (the r–z one: the pile test above)."""
+    """The same plug-in call in the Cartesian, nested and cylindrical grids (r–z: the pile test above)."""
     ref, plug = elastic_pair("umat")
     hist = {}
     for name, soil in (("builtin", ref.model_dump()), ("umat", plug.model_dump())):
