@@ -30,7 +30,7 @@
  * State variables (7, as the built-in's state array, tensor shear):
  *   UMAT  STATEV   = (e, d11, d22, d33, d12, d13, d23)   (the built-in's order; rotated here with DROT)
  *   VUMAT stateOld = (e, d11, d22, d33, d12, d23, d31)   (the VUMAT order; geocel co-rotates the group
- *                                                          starting at state variable 2: co_rotated_state = [2])
+ *                                                          starting at state variable 2, named delta_11 … delta_23)
  */
 
 #include <math.h>
@@ -1010,7 +1010,7 @@ void vumat_(int *nblock, int *ndir, int *nshr, int *nstatev, int *nfieldv, int *
         for (int i = 0; i < 6; i++) {
             T[i] = stressOld[at(b, nb, vu[i])];        /* co-rotated by geocel */
             deps[i] = strainInc[at(b, nb, vu[i])];     /* tensor shear */
-            q[i] = stateOld[at(b, nb, 1 + vu[i])];     /* co-rotated by geocel (co_rotated_state = [2]) */
+            q[i] = stateOld[at(b, nb, 1 + vu[i])];     /* co-rotated by geocel (a tensor group by its names) */
         }
         e = stateOld[at(b, nb, 0)];
         hypo_update(props, T, &e, q, deps, &M); /* M: geocel estimates it, or reads it from STATEV(8) */

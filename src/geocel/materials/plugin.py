@@ -7,7 +7,7 @@ processes. Every argument is converted at this boundary, once (docs/own-soil-mod
 * stress order 11, 22, 33, 12, 13, 23 (UMAT) or 11, 22, 33, 12, 23, 31 (VUMAT), tension positive;
 * strains: engineering shear for a UMAT, tensor shear for a VUMAT (geocel stores tensor shear);
 * the stress comes co-rotated with the increment's Hughes–Winget rotation; a UMAT gets that rotation as
-  DROT to rotate its tensor state, a VUMAT's tensor state groups (``co_rotated_state``) are co-rotated here;
+  DROT to rotate its tensor state, a VUMAT's tensor state groups (six state variables named ``…_11`` … ``…_23``) are co-rotated here;
 * CMNAME is followed by Fortran's hidden length argument (80).
 
 geocel's state of a plug-in cell: ``[e, STATEV(1…NSTATV), STRAN(6) (UMAT only, tensor shear)]``, e updated
