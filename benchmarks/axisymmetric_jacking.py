@@ -3,14 +3,14 @@
 Rigid closed-ended pile, D = 0.6 m, flat base, jacked from the ground surface into very dense Fraction E sand
 (hypoplasticity with intergranular strain, I_D = 0.93, K0 = 0.5, μ = tan(2/3 φ_c): the ``deeks-white`` preset),
 in a container of radius 4 m and depth 6 m (lateral roller, fixed base, 0.5 m of void above), MGS factor S,
-at ``velocity`` after a half-cosine start over 0.05 m. The grid has ``n`` cells per pile radius (fine cells
+at ``velocity`` after a half-cosine start over ``--ramp`` m (default a scenario's "auto": 1 s of prototype time). The grid has ``n`` cells per pile radius (fine cells
 a/n out to 4a and down to the final depth + 1 m, then growing by 15 % per cell up to 0.5 m), so the shaft is
 the node line r = a. Contact: :mod:`geocel.contact.axisym`.
 
     NUMBA_NUM_THREADS=2 python benchmarks/axisymmetric_jacking.py --cells-per-radius 6 [--penetration 1.2]
         [--scaling 10] [--velocity 0.5] [--base band|edge] [--rim base|split|shaft|corner] [--profile]
         [--soil hypoplastic|hypoplastic-no-igs|mohr-coulomb] [--frame laboratory|pile] [--nonlocal-length l]
-        [--safety-factor f] [--solver KEY=VALUE ...]
+        [--safety-factor f] [--solver KEY=VALUE ...] [--ramp m]
 
 Prints, at every 0.1 m of base depth, q_b (MPa) and q_s (kPa), each the mean over the steps within ±0.025 m
 of that depth (the base crosses a node row every a/n: the instantaneous values ripple with that period),
@@ -29,6 +29,7 @@ import numpy as np
 
 from geocel.benchmark.presets import preset_scenario
 from geocel.config.materials import MohrCoulomb
+from geocel.config.scenario import auto_ramp
 from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ, jack
 from geocel.grid.axisym import AxisymmetricGrid
 from geocel.solver.axisym_field import AxisymmetricField
@@ -60,7 +61,9 @@ def run(
     frame: str = "laboratory",
     nonlocal_length: float = 0.0,
     solver: dict | None = None,
+    ramp: float | None = None,
 ) -> dict:
+    """Jack the rigid pile in r–z; ``ramp`` (m): the half-cosine start, None: a scenario's "auto"."""
     sc = preset_scenario("deeks-white")
     if soil == "mohr-coulomb":  # a soil without rate or density effects, for checks of the contact and grid
         layers = [layer.model_copy(update={"e0": 0.6, "relative_density": None}) for layer in sc.soil.layers]
@@ -105,6 +108,7 @@ def run(
     if frame == "pile":
         c.follow_pile()
     depth, qb, qs = [], [], []
+    ramp = min(auto_ramp(velocity, scaling), penetration) if ramp is None else ramp
 
     def record(c):
         depth.append(c.pile.embedment)
@@ -114,11 +118,12 @@ def run(
     if verbose:
         print(g.describe())
         print(
-            f"S = {scaling:g}, v = {velocity:g} m/s, μ = {mu:.3f}, base = {base}, rim = {rim}, Δt₀ = {f.dt:.3g} s, "
+            f"S = {scaling:g}, v = {velocity:g} m/s (start over {ramp:.3g} m), μ = {mu:.3f}, base = {base}, "
+            f"rim = {rim}, Δt₀ = {f.dt:.3g} s, "
             f"soil {soil}, internal length {nonlocal_length:g} m"
         )
     t0 = time.perf_counter()
-    jack(c, penetration, velocity, ramp=0.05, callback=record)
+    jack(c, penetration, velocity, ramp=ramp, callback=record)
     wall = time.perf_counter() - t0
     depth, qb, qs = np.array(depth), np.array(qb), np.array(qs)
     rows = []
@@ -136,6 +141,7 @@ def run(
         "energy_error": f.energy_balance_error() / max(f.energy["external_work"], 1e-300),
         "timers": dict(f.timers),
         "frame": frame,
+        "ramp": ramp,
     }
     if raw:  # every step's values and the final field, for studies that post-process them
         out.update(depth=depth, qb=qb, qs=qs, field=f, contact=c)
@@ -191,6 +197,7 @@ def main() -> None:
         "--nonlocal-length", type=float, default=0.0,
         help="internal length l of the hypoplastic sand, m (0: the local model; docs/numerics.md)",
     )  # fmt: skip
+    ap.add_argument("--ramp", type=float, default=None, help='the start, m (default: "auto", ½ v √S · 1 s)')
     a = ap.parse_args()
     if not (a.cells_per_radius >= 1 and a.penetration > 0 and math.isfinite(a.penetration)):
         ap.error("cells per radius ≥ 1 and a positive penetration, please")
@@ -208,6 +215,7 @@ def main() -> None:
     run(
         a.cells_per_radius, a.penetration, a.scaling, a.velocity, a.rim, a.base, a.safety_factor,
         soil=a.soil, profile=a.profile, frame=a.frame, nonlocal_length=a.nonlocal_length, solver=solver,
+        ramp=a.ramp,
     )  # fmt: skip
 
 

@@ -201,6 +201,8 @@ def test_defaults_and_optional_tables():
         ("soil", "phi = 30.0", "[soil].phi = 30.0"),
         ("soil", 'model = "elastc"', '[soil].model = "elastc"'),
         ("loading", "velocity = 0.0", "[loading].velocity = 0.0"),
+        ("loading", "ramp = -0.1", "[loading].ramp = -0.1"),
+        ("loading", 'ramp = "slow"', '[loading].ramp = "slow"'),
         ("scaling", "mass_gravity = 0.5", "[scaling].mass_gravity = 0.5"),
         ("output", "checkpoint_every_steps = 0", "[output].checkpoint_every_steps = 0"),
         ("solver", "safety_factor = 1.5", "[solver].safety_factor = 1.5"),
@@ -253,6 +255,22 @@ def test_all_problems_are_listed_at_once():
         scenario_from_dict(tomllib.loads(bad))
     assert len(info.value.problems) == 3
     assert isinstance(info.value, ValueError)
+
+
+def test_automatic_start_lasts_one_second_of_prototype_time():
+    """ramp = "auto" (the default): a half-cosine start over ½ v √S · 1 s, so that runs with equal S v² (MGS and
+    time scaling alike) start alike; at most the penetration; a number is taken as it is."""
+    base = MINIMAL + "[pile]\n[loading]\nvelocity = 0.5\npenetration = 3.0\n"
+    s = scenario_from_dict(tomllib.loads(base))
+    assert s.loading.ramp == "auto" and s.ramp_length() == pytest.approx(0.25)
+    mgs = scenario_from_dict(tomllib.loads(base + "[scaling]\nmass_gravity = 10\n"))
+    fast = scenario_from_dict(tomllib.loads(base + "[scaling]\nvelocity_factor = 3.1622776601683795\n"))
+    assert mgs.ramp_length() == pytest.approx(0.25 * math.sqrt(10.0)) == fast.ramp_length()
+    assert scenario_from_dict(tomllib.loads(base + "[scaling]\nmass_gravity = 1000\n")).ramp_length() == 3.0
+    given = scenario_from_dict(tomllib.loads(base.replace("penetration = 3.0", "penetration = 3.0\nramp = 0.05")))
+    assert given.ramp_length() == 0.05
+    text = dump_scenario(s)
+    assert 'ramp = "auto"' in text and scenario_from_dict(tomllib.loads(text)).ramp_length() == s.ramp_length()
 
 
 def test_penetration_beyond_soil_depth_is_rejected():

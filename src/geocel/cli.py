@@ -715,13 +715,7 @@ def _print_stop(summary: dict, sim) -> None:
 
 def _print_verdict(summary: dict) -> bool:
     """Print the quasi-static check; returns False when it says invalid."""
-    from .solver.quasi_static import (
-        inertia_caution_error,
-        inertia_limits,
-        inertia_valid_error,
-        inertia_verdict,
-        verdict,
-    )
+    from .solver.quasi_static import inertia_limits, inertia_meaning, inertia_verdict, verdict
 
     ratio = summary["max_energy_ratio"]
     v = verdict(ratio)
@@ -735,11 +729,11 @@ def _print_verdict(summary: dict) -> bool:
         symmetry = summary.get("inertia_calibration", summary.get("symmetry", "3d"))
         vi = inertia_verdict(inertia, symmetry)
         valid, caution = inertia_limits(symmetry)
+        means_valid, means_caution = inertia_meaning(symmetry)
         console.print(
             f"inertia check: max ρ_S v²/q_b = {100 * inertia:.2g} % → [bold]{vi}[/bold] (≤ {100 * valid:.2g} % "
-            f"valid: q_b within ≈ {inertia_valid_error(symmetry):.0%} of the quasi-static value; ≤ "
-            f"{100 * caution:.2g} % caution: within ≈ {inertia_caution_error(symmetry):.0%}; lower S or the speed "
-            "if not valid)"
+            f"valid: {means_valid} of the quasi-static values; ≤ {100 * caution:.2g} % caution: {means_caution}; "
+            "lower S or the speed if not valid)"
         )
         v = "invalid" if vi == "invalid" else v
     return v != "invalid"

@@ -47,8 +47,10 @@ __all__ = [
     "Scaling",
     "Scenario",
     "ScenarioError",
+    "START_TIME",
     "Soil",
     "Solver",
+    "auto_ramp",
     "dump_scenario",
     "load_scenario",
     "scenario_from_dict",
@@ -469,19 +471,46 @@ class Contact(_Table):
         return math.tan(math.radians(2.0 / 3.0 * phi))
 
 
+#: prototype time (s) over which ``ramp = "auto"`` brings the pile to speed. A start much shorter than this sets
+#: the sand ringing, and the hypoplastic sand remembers it: a start over 0.05 m at S v² = 2.5 m²/s² left q_b
+#: 6–7 % above the quasi-static curve to 1 m, over 1 s of prototype time 1.2–1.3 %, in containers of 4 to 21 m
+#: radius alike (r–z; docs/validation.md, "The rate effect")
+START_TIME = 1.0
+
+
+def auto_ramp(velocity: float, mass_gravity: float = 1.0) -> float:
+    """The penetration (m) of a half-cosine start that lasts :data:`START_TIME` of prototype time at the head
+    speed ``velocity`` (m/s, with any time scaling) under MGS factor ``mass_gravity``: ½ v √S · START_TIME
+    (the model's time runs √S slower than the prototype's, so S v² alone sets the start's dynamics)."""
+    return 0.5 * velocity * math.sqrt(mass_gravity) * START_TIME
+
+
 class Loading(_Table):
     """``[loading]``: jacking of the pile head (prototype values)."""
 
     velocity: float = Field(0.02, gt=0.0, le=100.0, description="jacking velocity at the pile head, m/s")
     penetration: float = Field(9.0, gt=0.0, description="penetration to reach (stop criterion), m")
-    ramp: float = Field(0.05, ge=0.0, description="penetration over which the velocity builds up smoothly, m")
+    ramp: float | Literal["auto"] = Field(
+        "auto",
+        description="penetration over which the velocity builds up smoothly (a half-cosine; \"auto\": over 1 s of "
+        "prototype time, ½ v √S · 1 s, at most the penetration), m",
+    )
     duration: float | None = Field(
         None, gt=0.0, description="simulated time for runs without a pile (e.g. geostatic), s"
     )
 
+    @field_validator("ramp", mode="before")
+    @classmethod
+    def _check_ramp(cls, v: Any) -> Any:
+        if v == "auto":
+            return v
+        if isinstance(v, bool) or not isinstance(v, int | float) or not v >= 0.0:
+            raise ValueError('must be a length ≥ 0 m or "auto"')
+        return float(v)
+
     @model_validator(mode="after")
     def _check(self) -> Loading:
-        if self.ramp > self.penetration:
+        if self.ramp != "auto" and self.ramp > self.penetration:
             raise _invalid(("ramp",), self.ramp, f"must be ≤ penetration = {self.penetration} m")
         return self
 
@@ -819,6 +848,15 @@ class Scenario(_Table):
         frame (the grid moves down with the pile's base, so the surface rises through the void by it)."""
         d = self.domain
         return d.void_height + (self.loading.penetration if d.frame == "pile" and self.pile is not None else 0.0)
+
+    def ramp_length(self) -> float:
+        """The penetration (m) over which the head speed builds up: ``[loading] ramp``, or for ``"auto"``
+        :func:`auto_ramp` of the head speed (velocity × velocity_factor) and S, at most the penetration."""
+        ld = self.loading
+        if ld.ramp != "auto":
+            return float(ld.ramp)
+        v = ld.velocity * self.scaling.velocity_factor
+        return min(auto_ramp(v, self.scaling.mass_gravity), ld.penetration)
 
     def friction_coefficient(self) -> float:
         """Soil–pile Coulomb friction μ, - (``[contact].friction`` or tan(2/3 φ_c))."""

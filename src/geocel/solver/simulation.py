@@ -106,11 +106,14 @@ class Simulation:
         if self.has_pile:
             self.velocity = self._head_speed = ld.velocity * scenario.scaling.velocity_factor
             self.target = ld.penetration  # head displacement to reach, m
-            t_end = 2.0 * ld.ramp / self.velocity + (ld.penetration - ld.ramp) / self.velocity
+            #: penetration over which the head speed builds up (m; ``[loading] ramp`` resolved)
+            self.ramp = scenario.ramp_length()
+            t_end = 2.0 * self.ramp / self.velocity + (ld.penetration - self.ramp) / self.velocity
             self.duration = duration if duration is not None else (ld.duration or t_end)
             self.history_dz = o.history_every
             self.fields_dz = o.fields_every
         else:
+            self.ramp = 0.0
             self.duration = duration if duration is not None else ld.duration
             if self.duration is None:
                 raise ValueError("a soil-only run needs [loading] duration (simulated time, s)")
@@ -397,8 +400,7 @@ class Simulation:
     # --- measures ------------------------------------------------------------------------------------------
     def head_displacement(self) -> float:
         """Displacement of the pile head so far (m, downwards)."""
-        ld = self.scenario.loading
-        return head_displacement(self.field.time, self.velocity, ld.ramp) if self.has_pile else 0.0
+        return head_displacement(self.field.time, self.velocity, self.ramp) if self.has_pile else 0.0
 
     def tip_depth(self) -> float:
         """Depth of the pile tip below the ground surface (m)."""
@@ -410,7 +412,7 @@ class Simulation:
         ke = e["kinetic"]
         ie = e["internal"]
         if self.pile is not None:
-            v_ref = -head_velocity(self.field.time, self.velocity, self.scenario.loading.ramp)
+            v_ref = -head_velocity(self.field.time, self.velocity, self.ramp)
             pke, pse = self.backend.pile_energies(v_ref)
             ke += pke
             ie += pse
@@ -419,7 +421,7 @@ class Simulation:
     def _energy_check_start(self) -> float:
         """Head displacement (m) from which the quasi-static check counts: one diameter (and past the ramp),
         at most half the target."""
-        start = max(self.scenario.loading.ramp, self.scenario.pile.diameter)
+        start = max(self.ramp, self.scenario.pile.diameter)
         return min(start, 0.5 * self.target)
 
     def record_inertia(self, qb: float) -> None:
@@ -484,6 +486,7 @@ class Simulation:
                 pile_subcycling=self.scenario.solver.pile_subcycling,
                 single_dt_wall_time_estimate=self._single_dt_wall_estimate(),
                 velocity=self.velocity,
+                ramp=self.ramp,  # (m: [loading] ramp, "auto" resolved)
                 penetration=self.head_displacement(),
                 tip_depth=self.tip_depth(),
             )
@@ -577,7 +580,7 @@ class Simulation:
             while not self._done():
                 dt = self._governing()
                 fb, fs, fh = self.backend.advance(
-                    dt, self._head_speed, self.scenario.loading.ramp, self._substeps
+                    dt, self._head_speed, self.ramp, self._substeps
                 )
                 if self.pile is not None:
                     self.pile_steps += self._substeps
