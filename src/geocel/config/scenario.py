@@ -473,7 +473,7 @@ class Contact(_Table):
 
 #: prototype time (s) over which ``ramp = "auto"`` brings the pile to speed. A start much shorter than this sets
 #: the sand ringing, and the hypoplastic sand remembers it: a start over 0.05 m at S v² = 2.5 m²/s² left q_b
-#: 6–7 % above the quasi-static curve to 1 m, over 1 s of prototype time 1.2–1.3 %, in containers of 4 to 21 m
+#: 6–7 % above the quasi-static curve to 1 m, over 1 s of prototype time 1.1–1.3 %, in containers of 4 to 21 m
 #: radius alike (r–z; docs/validation.md, "The rate effect")
 START_TIME = 1.0
 
