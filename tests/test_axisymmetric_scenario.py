@@ -299,3 +299,32 @@ def test_a_runaway_is_a_node_by_soil_that_moved_more_than_a_cell_whatever_its_ma
     u[1, 0, 0] = 0.09  # soil, less than a cell
     flagged = runaway_nodes(u, rec, phi * volume, volume)
     assert flagged.sum() == 1 and flagged[0, 1]
+
+
+def test_a_smooth_base_takes_no_radial_force_and_a_cartesian_grid_refuses_base_friction(tmp_path):
+    """``[contact] base_friction``: 0 leaves the base no tangential force on the soil at any step (a rough base, the
+    shaft's μ by default, takes one; in the pile's frame with the split corner the base's radial force is its
+    friction alone); the summary reports both coefficients; a Cartesian grid refuses the key, and a negative value
+    is one line."""
+    radial = {}
+    for name, base in (("smooth", 0.0), ("default", None)):
+        d = scenario_dict(frame="pile")
+        if base is not None:
+            d["contact"] = {"base_friction": base}
+        sim = Simulation(scenario_from_dict(d), out=tmp_path / name, progress=False, write_fields=False)
+        seen: list[float] = []
+        sim.add_callback(lambda sim, seen=seen: seen.append(abs(float(sim.contact.base_force[0]))))
+        s = sim.run()
+        radial[name] = (max(seen), s)
+    mu = radial["default"][1]["friction_coefficient"]
+    assert radial["smooth"][0] == 0.0 and radial["smooth"][1]["base_friction_coefficient"] == 0.0
+    assert radial["default"][0] > 0.0 and radial["default"][1]["base_friction_coefficient"] == mu > 0.0
+    d = scenario_dict()
+    d["domain"].update(symmetry="quarter", layout="tensor")
+    d["contact"] = {"base_friction": 0.0}
+    with pytest.raises(ScenarioError, match=r"\[contact\]\.base_friction = 0\.0: an option of the ring geometries"):
+        scenario_from_dict(d)
+    d = scenario_dict()
+    d["contact"] = {"base_friction": -0.1}
+    with pytest.raises(ScenarioError, match=r"\[contact\]\.base_friction"):
+        scenario_from_dict(d)

@@ -439,6 +439,13 @@ class Contact(_Table):
     friction: float | None = Field(
         None, ge=0.0, le=2.0, description="Coulomb friction coefficient μ, - (None: tan(2/3 φ_c))"
     )
+    base_friction: float | None = Field(
+        None,
+        ge=0.0,
+        description="Coulomb friction coefficient μ_b of the pile's flat base, - (None: the shaft's μ; 0 smooth, inf "
+        "rough); the ring geometries (r–z, the cylindrical layout). It moves q_s: the sand dragged along a rough base "
+        "goes round the corner as a loosened layer (docs/validation.md, \"The shaft's shear zone\")",
+    )
     formulation: Literal["band", "edge"] = Field(
         "band",
         description="band: soil nodes within half a cell of the shaft and one cell below the base are "
@@ -456,6 +463,10 @@ class Contact(_Table):
         "between its cells, the soil under the base moving with it and the soil beside the shaft sliding along "
         "it (corner: the pile's frame only; docs/numerics.md)",
     )
+
+    def base_friction_coefficient(self, material: MaterialModel) -> float:
+        """μ_b, -: ``base_friction`` if given, else the shaft's :meth:`friction_coefficient`."""
+        return float(self.base_friction) if self.base_friction is not None else self.friction_coefficient(material)
 
     def friction_coefficient(self, material: MaterialModel) -> float:
         """μ, -: ``friction`` if given, else tan(2/3 φ) with φ = φ_c (hypoplastic), φ (Mohr–Coulomb) or a UMAT's or
@@ -718,6 +729,13 @@ class Scenario(_Table):
                     raise _invalid(
                         ("contact", "formulation"), self.contact.formulation, 'the cylindrical layout has "band" only'
                     )
+            if self.contact.base_friction is not None and not ring:
+                raise _invalid(
+                    ("contact", "base_friction"),
+                    self.contact.base_friction,
+                    'an option of the ring geometries (symmetry = "axisymmetric", layout = "cylindrical"); a Cartesian '
+                    "grid's base takes the shaft's friction",
+                )
             if self.output.profiles_every is not None and not ring:
                 raise _invalid(
                     ("output", "profiles_every"),

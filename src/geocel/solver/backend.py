@@ -475,7 +475,7 @@ class AxisymmetricBackend(Backend):
                 f,
                 pile,
                 friction=mu,
-                base_friction=mu,
+                base_friction=scenario.contact.base_friction_coefficient(mat),
                 base=scenario.contact.formulation,
                 rim=scenario.contact.rim,
             )
@@ -565,6 +565,7 @@ class AxisymmetricBackend(Backend):
             "pile_model": "r–z",
             "symmetry_factor": 1,
             "friction_coefficient": c.mu,
+            "base_friction_coefficient": c.mu_base,
             "soil_moved_out_of_pile": 0.0,  # (nothing is relocated in r–z: see soil_inside_pile)
             "soil_inside_pile": c.soil_inside(),
             "worst_friction_excess": c.worst_friction_excess,
@@ -689,7 +690,8 @@ class CylindricalBackend(AxisymmetricBackend):
                 pile = RigidPileRZ(0.5 * p.diameter, -p.initial_embedment)
             else:
                 pile = build_pile_body(scenario, symmetry="axisymmetric")
-            self.contact = CylindricalPileContact(f, pile, friction=mu, base_friction=mu, rim=scenario.contact.rim)
+            mu_b = scenario.contact.base_friction_coefficient(scenario.soil.material)
+            self.contact = CylindricalPileContact(f, pile, friction=mu, base_friction=mu_b, rim=scenario.contact.rim)
             self.pile = pile
             if p.initial_embedment > 0.0:
                 self.contact.wish_in_place()
