@@ -443,7 +443,7 @@ class Contact(_Table):
         None,
         ge=0.0,
         description="Coulomb friction coefficient μ_b of the pile's flat base, - (None: the shaft's μ; 0 smooth, inf "
-        "rough); the ring geometries (r–z, the cylindrical layout). It moves q_s: the sand dragged along a rough base "
+        "rough); the ring geometries (r–z, the cylindrical layout). It moves q_b and q_s: the sand dragged along a rough base "
         "goes round the corner as a loosened layer (docs/validation.md, \"The shaft's shear zone\")",
     )
     formulation: Literal["band", "edge"] = Field(
