@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from geocel.analysis.compare import compare_runs
+from geocel.analysis.compare import compare_runs, sample
 
 ROOT = Path(__file__).resolve().parents[1]
 TEMPLATE = ROOT / "examples" / "rz_coupled_24_9m.toml"
@@ -103,8 +103,8 @@ def write_table(runs_dir: Path, data: Path) -> None:
             lines.append(f"# {col} MPE per halving ({FROM}-{TO} m): {pairs}; {rest}")
         table = pd.DataFrame({
             "depth_m": depths.round(3),
-            "qb_MPa": _sample(finest, depths, "qb") / 1e6,
-            "qs_kPa": _sample(finest, depths, "qs") / 1e3,
+            "qb_MPa": sample(finest, depths, "qb") / 1e6,
+            "qs_kPa": sample(finest, depths, "qs") / 1e3,
         })  # fmt: skip
         for col, unit, name in (("qb", 1e6, "qb_extrapolated_MPa"), ("qs", 1e3, "qs_extrapolated_kPa")):
             ext = cmp.convergence.get(col, {}).get("extrapolated")
@@ -115,12 +115,6 @@ def write_table(runs_dir: Path, data: Path) -> None:
         print("\n".join(lines))
         print(cmp.table.to_string(index=False, float_format=lambda x: f"{x:.3g}"))
         print(f"-> {path}\n")
-
-
-def _sample(curves, depths: np.ndarray, col: str) -> np.ndarray:
-    from geocel.analysis.compare import sample
-
-    return sample(curves, depths, col)
 
 
 def main() -> None:
