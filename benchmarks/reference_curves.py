@@ -25,7 +25,6 @@ import math
 import re
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from geocel.analysis.compare import compare_runs, sample
