@@ -5,8 +5,8 @@
 For runs with installation profiles at several radii (``[output] profiles_every``, ``profile_radii``; e.g. those of
 ``benchmarks/reference_curves.py``), at the last profile output (or at ``--penetration``) and at each height h/R
 above the tip: the void ratio e and σ'_r/σ'_v0 against r/R, the shaft's σ'_r/σ'_v0, and the width of the loosened
-zone next to the shaft (where e is above the initial void ratio by more than :data:`LOOSE`), in metres and in fine
-cells. A zone whose width in cells stays the same while the cells shrink is set by the grid, not by the sand.
+zone next to the shaft (out to the outermost profiled radius at which e exceeds the far field's by :data:`LOOSE`; so
+its resolution is that of ``profile_radii``), in metres and in fine cells. A zone whose width in cells stays the same while the cells shrink is set by the grid, not by the sand.
 """
 
 from __future__ import annotations
@@ -36,13 +36,13 @@ def zone(run: Path, penetration: float | None, heights: list[float]) -> None:
     print(f"{run}: {a / h_cell:.0f} cells per pile radius, tip at {pen:.2f} m")
     print("  r/R:           " + " ".join(f"{r:6.3f}" for r in radii))
     for h in heights:
-        e = np.array([np.interp(h, g["h_over_R"], g["e"]) for _, g in soil.sort_values("h_over_R").groupby("r_over_R")])
-        s = np.array([np.interp(h, g["h_over_R"], g["sigma_r_over_sigma_v0"])
-                      for _, g in soil.sort_values("h_over_R").groupby("r_over_R")])  # fmt: skip
+        groups = [g for _, g in soil.sort_values("h_over_R").groupby("r_over_R")]
+        e = np.array([np.interp(h, g["h_over_R"], g["e"]) for g in groups])
+        s = np.array([np.interp(h, g["h_over_R"], g["sigma_r_over_sigma_v0"]) for g in groups])
         s_shaft = np.interp(h, shaft["h_over_R"], shaft["sigma_r_over_sigma_v0"])
+        # the loosened zone reaches the outermost profiled radius before the first one that is not loosened
         loose = e > e[-1] + LOOSE
-        width = (np.interp(LOOSE + e[-1], e[: np.argmin(loose)][::-1], radii[: np.argmin(loose)][::-1]) - 1.0) * a \
-            if loose[0] and not loose.all() else float("nan")  # fmt: skip
+        width = (radii[np.argmin(loose) - 1] - 1.0) * a if loose[0] and not loose.all() else float("nan")
         print(f"  h/R = {h:4.1f}  e:    " + " ".join(f"{x:6.3f}" for x in e))
         print("              s'r/s'v0: " + " ".join(f"{x:6.3f}" for x in s)
               + f"   shaft {s_shaft:.3f}; loosened zone {width:.3f} m = {width / h_cell:.1f} cells")  # fmt: skip
