@@ -28,8 +28,8 @@ import numpy as np
 from numba import njit
 
 from ..bodies.pile import PileBody, Surface
-from ..euler.cylindrical import gather_node_force_cyl
-from ..euler.lagrange import hourglass_corner
+from ..euler.cylindrical import corner_force_cyl, gather_node_force_cyl
+from ..euler.lagrange import add_forces
 from ..materials.tensor import KERNEL_OPTIONS
 from .axisym import AxisymmetricPileContact, RigidPileRZ, split_corner_node
 
@@ -50,9 +50,7 @@ def _node_force(i, j, k, cf, ties, nr, nt, nz):
         lo, hi = max(j - M + step, 0), min(j + M - step, nt)
     for jj in range(lo, hi + 1, step):
         w = 1.0 if (i == 0 or jj == j) else 1.0 - abs(jj - j) / M
-        h = gather_node_force_cyl(i, jj, k, cf, ties, nr, nt, nz)
-        g = (g[0] + w * h[0], g[1] + w * h[1], g[2] + w * h[2], g[3] + w * h[3], g[4] + w * h[4], g[5] + w * h[5],
-             g[6] + w * h[6], g[7] + w * h[7], g[8] + w * h[8])  # fmt: skip
+        g = add_forces(g, gather_node_force_cyl(i, jj, k, cf, ties, nr, nt, nz), w)
     return g
 
 
@@ -72,15 +70,14 @@ def _outer_forces(ia, j, kc, cf, nt):
         eta = 1.0 if cj < j else -1.0
         for ck in (kc - 1, kc):
             zeta = 1.0 if ck < kc else -1.0
-            c = cf[ia, cj, ck]
-            zs -= xi * c[8] + eta * c[9] + zeta * c[10]
-            zq += zeta * c[14]
-            fh = hourglass_corner(c, 15, xi, eta, zeta)
-            zh += fh[2]
+            f = corner_force_cyl(cf[ia, cj, ck], xi, eta, zeta)
+            zs += f[2]
+            zq += f[5]
+            zh += f[8]
             if ck == kc:
-                rs -= xi * c[0] + eta * c[1] + zeta * c[2] + c[3]
-                rq += xi * c[11] + c[12]
-                rh += fh[0]
+                rs += f[0]
+                rq += f[3]
+                rh += f[6]
     return (zs, zq, zh), (rs, rq, rh)
 
 

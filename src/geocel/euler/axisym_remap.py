@@ -25,7 +25,7 @@ from numba import njit, prange
 
 from ..materials.tensor import KERNEL_OPTIONS
 from .axisym import NO_SPLIT
-from .remap import sweep_cells_along, sweep_nodes_along
+from .remap import drain, faces_of, split_sweeps
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -132,15 +132,9 @@ def remap_rz(
     stress3 = stress[:, None, :, :]
     state3 = state[:, None, :, :]
     fbar3 = fbar[:, None, :]
-    lost = 0.0
-    capped = 0.0
-    for axis in _ORDERS[parity % 2]:
-        p = _PERM[axis]
-        lo, ca = sweep_cells_along(p, axis, (h[p[0]], h[p[1]]), act3, u3, dt, phi, Vs3, Vcur3, mass3, stress3,
-                                   state3, fbar3, rho_lo, rho_hi)  # fmt: skip
-        lost += lo
-        capped += ca
-        sweep_nodes_along(p, fbar3, m_cur, m_next, v3, mtiny)
-        m_cur, m_next = m_next, m_cur
+    lost, capped, m_cur, _ = drain(
+        split_sweeps(_ORDERS[parity % 2], _PERM, faces_of(h, _PERM), act3, u3, dt, phi, Vs3, Vcur3, mass3, stress3,
+                     state3, fbar3, rho_lo, rho_hi, m_cur, m_next, v3, mtiny)
+    )  # fmt: skip
     _from_wedge(m_cur, v3, nmass, v)
     return lost, capped

@@ -46,13 +46,15 @@ from ..materials.tensor import KERNEL_OPTIONS
 from .lagrange import (
     G_FROM_M,
     PHI_MIN,
+    add_forces,
     cell_response,
     characteristic_length,
     chunk_minimum,
     clear_void_cell,
     column_sums,
+    corner_force,
     corner_sums,
-    hourglass_corner,
+    force_factors,
     hourglass_modes,
     update_node,
 )
@@ -155,38 +157,24 @@ def group_sums(Vs, mass, i, j, k, m):
 
 @njit(inline="always", **KERNEL_OPTIONS)
 def cell_force_factors_cyl(ci, cj, ck, gr_, gt_, gz_, nn_, vs, mc, stress, q, hg, out):
-    """The corner-independent factors of cell (ci, cj, ck)'s nodal forces into ``out`` (27), its soil volume
-    ``vs`` and mass ``mc`` given (a tied group's sums over its slots); ``gr_`` = 1/(4h_r), ``gt_`` =
-    1/(4 r_c m Δθ), ``nn_`` = 1/(8 r_c) per ring, ``gz_`` = 1/(4h_z) per row. With the corner's signs
-    ξ, η, ζ: f_σ = −(ξF0 + ηF1 + ζF2 + F3, ξF4 + ηF5 + ζF6 + F7, ξF8 + ηF9 + ζF10), f_q = (ξF11 + F12, ηF13,
-    ζF14), f_hg,d = −(ξη F[15+d] + ηζ F[18+d] + ξζ F[21+d] + ξηζ F[24+d])."""
-    gr = gr_[ci]
-    gt = gt_[ci]
-    nn = nn_[ci]
-    gz = gz_[ck]
-    s = stress[ci, cj, ck]
-    srt = s[3]
-    srz = s[4]
-    stz = s[5]
-    out[0] = vs * s[0] * gr
-    out[1] = vs * srt * gt
-    out[2] = vs * srz * gz
-    out[3] = vs * s[1] * nn
-    out[4] = vs * srt * gr
-    out[5] = vs * s[1] * gt
-    out[6] = vs * stz * gz
-    out[7] = -vs * srt * nn
-    out[8] = vs * srz * gr
-    out[9] = vs * stz * gt
-    out[10] = vs * s[2] * gz
-    pq = vs * q[ci, cj, ck]
-    out[11] = pq * gr
-    out[12] = pq * nn
-    out[13] = pq * gt
-    out[14] = pq * gz
-    for a in range(4):
-        for d in range(3):
-            out[15 + 3 * a + d] = mc * hg[ci, cj, ck, a, d]
+    """:func:`geocel.euler.lagrange.force_factors` of cell (ci, cj, ck) along (r, θ, z) into ``out[:24]`` and its
+    hoop terms into ``out[24:27]`` (:func:`geocel.euler.lagrange.corner_force`'s h_r = V_s σ_θθ/(8 r_c), h_θ =
+    −V_s σ_rθ/(8 r_c), h_q = V_s q/(8 r_c)); its soil volume ``vs`` and mass ``mc`` given (a tied group's sums
+    over its slots); ``gr_`` = 1/(4h_r), ``gt_`` = 1/(4 r_c m Δθ), ``nn_`` = 1/(8 r_c) per ring, ``gz_`` =
+    1/(4h_z) per row."""
+    force_factors(ci, cj, ck, gr_[ci], gt_[ci], gz_[ck], vs, mc, stress, q, hg, out)
+    vn = vs * nn_[ci]
+    out[24] = vn * stress[ci, cj, ck, 1]
+    out[25] = -vn * stress[ci, cj, ck, 3]
+    out[26] = vn * q[ci, cj, ck]
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def corner_force_cyl(c, xi, eta, zeta):
+    """:func:`geocel.euler.lagrange.corner_force` with the cylindrical cell's hoop terms (−h_r, −h_θ on f_σ, h_q on
+    f_q,r)."""
+    f = corner_force(c, xi, eta, zeta)
+    return (f[0] - c[24], f[1] - c[25], f[2], f[3] + c[26], f[4], f[5], f[6], f[7], f[8])
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
@@ -194,15 +182,7 @@ def gather_node_force_cyl(i, j, k, cf, ties, nr, nt, nz):
     """Stress, viscous and hourglass forces on node (i, j, k) from the factors ``cf`` of the ≤ 8 cells it is a
     corner of (a tied group of ring ci is one cell, its factors at its first slot; the node is its corner only
     on a multiple of ``ties[ci]``), one flat 9-tuple (f_σ, f_q, f_hg)."""
-    fs0 = 0.0
-    fs1 = 0.0
-    fs2 = 0.0
-    fq0 = 0.0
-    fq1 = 0.0
-    fq2 = 0.0
-    fh0 = 0.0
-    fh1 = 0.0
-    fh2 = 0.0
+    g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     for ci in range(max(i - 1, 0), min(i + 1, nr)):
         xi = 1.0 if ci < i else -1.0
         m = ties[ci]
@@ -213,19 +193,8 @@ def gather_node_force_cyl(i, j, k, cf, ties, nr, nt, nz):
                 continue
             eta = 1.0 if cj < j else -1.0
             for ck in range(max(k - 1, 0), min(k + 1, nz)):
-                zeta = 1.0 if ck < k else -1.0
-                c = cf[ci, cj, ck]
-                fs0 -= xi * c[0] + eta * c[1] + zeta * c[2] + c[3]
-                fs1 -= xi * c[4] + eta * c[5] + zeta * c[6] + c[7]
-                fs2 -= xi * c[8] + eta * c[9] + zeta * c[10]
-                fq0 += xi * c[11] + c[12]
-                fq1 += eta * c[13]
-                fq2 += zeta * c[14]
-                fh = hourglass_corner(c, 15, xi, eta, zeta)
-                fh0 += fh[0]
-                fh1 += fh[1]
-                fh2 += fh[2]
-    return (fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2)
+                g = add_forces(g, corner_force_cyl(cf[ci, cj, ck], xi, eta, 1.0 if ck < k else -1.0), 1.0)
+    return g
 
 
 @njit(**KERNEL_OPTIONS)
@@ -239,9 +208,7 @@ def _advance_ring(i, cf, ties, nmass, v, fix, vfix, fext, reaction, gravity, a_h
         if i == 0:  # the axis: one node
             g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
             for jj in range(0, nt + 1, mo):
-                h = gather_node_force_cyl(0, jj, k, cf, ties, nr, nt, nz)
-                g = (g[0] + h[0], g[1] + h[1], g[2] + h[2], g[3] + h[3], g[4] + h[4], g[5] + h[5],
-                     g[6] + h[6], g[7] + h[7], g[8] + h[8])  # fmt: skip
+                g = add_forces(g, gather_node_force_cyl(0, jj, k, cf, ties, nr, nt, nz), 1.0)
             m = nmass[0, 0, k]
             if m <= mtiny:
                 for d in range(3):

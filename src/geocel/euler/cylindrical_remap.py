@@ -37,7 +37,7 @@ from numba import njit, prange
 
 from ..materials.tensor import KERNEL_OPTIONS
 from .cylindrical import follow_masters, node_mass_cyl
-from .remap import sweep_cells_along, sweep_nodes_along
+from .remap import drain, split_sweeps
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -348,27 +348,22 @@ def remap_cyl(
     if active is None:
         active = work["all_active"]
     tens, hgo = work["tensors"], work["vectors"]
-    lost = 0.0
-    capped = 0.0
     # no motion round the axis (to round-off: an axisymmetric one): the θ sweep would move nothing
     umax, utheta = _largest_motions(displacement)
-    skip_theta = utheta <= 1e-12 * umax
-    for axis in _ORDERS[parity % 2]:
-        if axis == 1 and skip_theta:
-            continue
-        p = _PERM[axis]
-        if axis == 1:  # across θ: Cartesian components
-            _turn_cells(stress, state, work["theta_c"], tens, hgo, 1.0)
-            _turn_nodes(v, work["theta_n"], 1.0)
-        lo, ca = sweep_cells_along(p, axis, h[axis], active, u3, 1.0, phi, Vs, Vcur, mass, stress, state, fbar,
-                                   rho_lo, rho_hi)  # fmt: skip
-        lost += lo
-        capped += ca
-        sweep_nodes_along(p, fbar, m_cur, m_next, v, mtiny)
-        m_cur, m_next = m_next, m_cur
-        if axis == 1:
-            _turn_cells(stress, state, work["theta_c"], tens, hgo, -1.0)
-            _turn_nodes(v, work["theta_n"], -1.0)
+    order = tuple(a for a in _ORDERS[parity % 2] if a != 1 or utheta > 1e-12 * umax)
+
+    def turn(event: tuple) -> None:
+        """Across θ the sweep works in Cartesian components: turned there before it, back after it."""
+        if event[1] == 1 and event[0] in ("start", "nodes"):
+            sign = 1.0 if event[0] == "start" else -1.0
+            _turn_cells(stress, state, work["theta_c"], tens, hgo, sign)
+            _turn_nodes(v, work["theta_n"], sign)
+
+    lost, capped, m_cur, m_next = drain(
+        split_sweeps(order, _PERM, h, active, u3, 1.0, phi, Vs, Vcur, mass, stress, state, fbar, rho_lo, rho_hi,
+                     m_cur, m_next, v, mtiny),
+        turn,
+    )  # fmt: skip
     if work["tied"]:
         # the slots swept as fine cells, then each group made one again (in its basis); the nodes' momentum
         # folded onto the independent lines and kept while their masses become the groups' lumped ones

@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..materials.tensor import KERNEL_OPTIONS
-from .lagrange import advance_node, column_sums, corner_mass, gather_node_force
+from .lagrange import add_forces, advance_node, column_sums, corner_mass, gather_node_force
 
 
 @njit(parallel=True, **KERNEL_OPTIONS)
@@ -72,10 +72,7 @@ def couple_nodes(
                 v_c[I, J, k, 1] = 0.0
                 v_c[I, J, k, 2] = 0.0
                 continue
-            gs = (
-                f[c, 0] + g[0], f[c, 1] + g[1], f[c, 2] + g[2], f[c, 3] + g[3], f[c, 4] + g[4],
-                f[c, 5] + g[5], f[c, 6] + g[6], f[c, 7] + g[7], f[c, 8] + g[8],
-            )  # fmt: skip
+            gs = add_forces(g, f[c], 1.0)
             vx, vy, vz, e0, e1, e2, e3, e4 = advance_node(
                 mm, gs, v_old[c, k, 0], v_old[c, k, 1], v_old[c, k, 2], fix_c[I, J, k, 0], fix_c[I, J, k, 1],
                 fix_c[I, J, k, 2], gravity, dt,

@@ -133,36 +133,38 @@ FORCE_FACTORS = 24
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
-def cell_force_factors(ci, cj, ck, rx, ry, rz, Vs, mass, stress, q, hg, out):
-    """The factors of cell (ci, cj, ck)'s nodal forces that do not depend on the corner, into ``out`` (24);
-    ``rx, ry, rz`` = 1/(4h) per cell (the shape-function gradient factors). With the corner's signs ξ, η, ζ the
-    forces of :func:`gather_node_force` are f_σ,a = −(ξ F[3a] + η F[3a+1] +
-    ζ F[3a+2]), f_q = (ξ F[9], η F[10], ζ F[11]), f_hg,d = −(ξη F[12+d] + ηζ F[15+d] + ξζ F[18+d] +
-    ξηζ F[21+d])."""
-    vs = Vs[ci, cj, ck]
-    gx = rx[ci]
-    gy = ry[cj]
-    gz = rz[ck]
+def force_factors(ci, cj, ck, g0, g1, g2, vs, mc, stress, q, hg, out):
+    """The factors of cell (ci, cj, ck)'s nodal forces that do not depend on the corner, into ``out[:24]``, in
+    every geometry: ``g0, g1, g2`` the shape-function gradient factors along the cell's three axes (Cartesian
+    1/(4h); cylindrical 1/(4h_r), 1/(4 r_c Δθ), 1/(4h_z)), ``vs`` its soil volume, ``mc`` its mass. F[3a+b] =
+    V_s σ_ab g_b, F[9+b] = V_s q g_b, F[12+3α+d] = m Q_α,d; :func:`corner_force` turns them into a corner's
+    forces."""
     sxy = stress[ci, cj, ck, 3]
     sxz = stress[ci, cj, ck, 4]
     syz = stress[ci, cj, ck, 5]
-    out[0] = vs * stress[ci, cj, ck, 0] * gx
-    out[1] = vs * sxy * gy
-    out[2] = vs * sxz * gz
-    out[3] = vs * sxy * gx
-    out[4] = vs * stress[ci, cj, ck, 1] * gy
-    out[5] = vs * syz * gz
-    out[6] = vs * sxz * gx
-    out[7] = vs * syz * gy
-    out[8] = vs * stress[ci, cj, ck, 2] * gz
+    out[0] = vs * stress[ci, cj, ck, 0] * g0
+    out[1] = vs * sxy * g1
+    out[2] = vs * sxz * g2
+    out[3] = vs * sxy * g0
+    out[4] = vs * stress[ci, cj, ck, 1] * g1
+    out[5] = vs * syz * g2
+    out[6] = vs * sxz * g0
+    out[7] = vs * syz * g1
+    out[8] = vs * stress[ci, cj, ck, 2] * g2
     pq = vs * q[ci, cj, ck]
-    out[9] = pq * gx
-    out[10] = pq * gy
-    out[11] = pq * gz
-    mc = mass[ci, cj, ck]
+    out[9] = pq * g0
+    out[10] = pq * g1
+    out[11] = pq * g2
     for a in range(4):
         for d in range(3):
             out[12 + 3 * a + d] = mc * hg[ci, cj, ck, a, d]
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def cell_force_factors(ci, cj, ck, rx, ry, rz, Vs, mass, stress, q, hg, out):
+    """:func:`force_factors` of Cartesian cell (ci, cj, ck) into ``out`` (24); ``rx, ry, rz`` = 1/(4h) per
+    cell."""
+    force_factors(ci, cj, ck, rx[ci], ry[cj], rz[ck], Vs[ci, cj, ck], mass[ci, cj, ck], stress, q, hg, out)
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
@@ -181,6 +183,32 @@ def hourglass_corner(c, o, xi, eta, zeta):
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
+def add_forces(g, h, w):
+    """g + w h for two flat 9-tuples of nodal forces (f_σ, f_q, f_hg)."""
+    return (g[0] + w * h[0], g[1] + w * h[1], g[2] + w * h[2], g[3] + w * h[3], g[4] + w * h[4], g[5] + w * h[5],
+            g[6] + w * h[6], g[7] + w * h[7], g[8] + w * h[8])  # fmt: skip
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
+def corner_force(c, xi, eta, zeta):
+    """The forces (f_σ, f_q, f_hg) at the corner (ξ, η, ζ) of a cell with the :func:`force_factors` ``c``, as
+    one flat 9-tuple: f_σ,a = −(ξ F[3a] + η F[3a+1] + ζ F[3a+2]), f_q = (ξ F[9], η F[10], ζ F[11]), f_hg from
+    :func:`hourglass_corner`."""
+    fh = hourglass_corner(c, 12, xi, eta, zeta)
+    return (
+        -(xi * c[0] + eta * c[1] + zeta * c[2]),
+        -(xi * c[3] + eta * c[4] + zeta * c[5]),
+        -(xi * c[6] + eta * c[7] + zeta * c[8]),
+        xi * c[9],
+        eta * c[10],
+        zeta * c[11],
+        fh[0],
+        fh[1],
+        fh[2],
+    )
+
+
+@njit(inline="always", **KERNEL_OPTIONS)
 def gather_node_force(i, j, k, active, cf, o0, o1, o2, nx, ny, nz):
     """Stress, bulk-viscosity and hourglass forces on node (i, j, k) (grid of nx × ny × nz cells), gathered
     from the :func:`cell_force_factors` ``cf`` of its ≤ 8 cells, cell (ci, cj, ck) at cf[ci − o0, cj − o1,
@@ -188,15 +216,7 @@ def gather_node_force(i, j, k, active, cf, o0, o1, o2, nx, ny, nz):
     with h = (ξη, ηζ, ξζ, ξηζ) and Q_α the cell's mass times its resistance per unit mass (so a cell the remap
     has nearly emptied pushes proportionally less). Returns (f_σ, f_q, f_hg) as one flat 9-tuple (a nested one
     trips Numba's analysis of the parallel loops that call it)."""
-    fs0 = 0.0
-    fs1 = 0.0
-    fs2 = 0.0
-    fq0 = 0.0
-    fq1 = 0.0
-    fq2 = 0.0
-    fh0 = 0.0
-    fh1 = 0.0
-    fh2 = 0.0
+    g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     for ci in range(max(i - 1, 0), min(i + 1, nx)):
         xi = 1.0 if ci < i else -1.0
         for cj in range(max(j - 1, 0), min(j + 1, ny)):
@@ -205,18 +225,8 @@ def gather_node_force(i, j, k, active, cf, o0, o1, o2, nx, ny, nz):
             eta = 1.0 if cj < j else -1.0
             for ck in range(max(k - 1, 0), min(k + 1, nz)):
                 zeta = 1.0 if ck < k else -1.0
-                c = cf[ci - o0, cj - o1, ck - o2]
-                fs0 -= xi * c[0] + eta * c[1] + zeta * c[2]
-                fs1 -= xi * c[3] + eta * c[4] + zeta * c[5]
-                fs2 -= xi * c[6] + eta * c[7] + zeta * c[8]
-                fq0 += xi * c[9]
-                fq1 += eta * c[10]
-                fq2 += zeta * c[11]
-                fh = hourglass_corner(c, 12, xi, eta, zeta)
-                fh0 += fh[0]
-                fh1 += fh[1]
-                fh2 += fh[2]
-    return (fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2)
+                g = add_forces(g, corner_force(cf[ci - o0, cj - o1, ck - o2], xi, eta, zeta), 1.0)
+    return g
 
 
 @njit(inline="always", **KERNEL_OPTIONS)

@@ -26,6 +26,9 @@ splitting error) are capped and counted.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Generator
+from typing import Any
+
 import numpy as np
 from numba import njit, prange, types
 
@@ -362,6 +365,12 @@ _ORDERS = ((0, 1, 2), (2, 1, 0))
 _PERM = {0: (1, 2, 0), 1: (0, 2, 1), 2: (1, 0, 2)}
 
 
+def faces_of(h: tuple, perm: dict) -> dict:
+    """Each sweep's face areas as the two factors h1[first index] × h2[second] of its transposed arrays, from the
+    cell sizes (or their area factors) ``h`` along the three axes."""
+    return {axis: (h[p[0]], h[p[1]]) for axis, p in perm.items()}
+
+
 def remap(
     hx: np.ndarray, hy: np.ndarray, hz: np.ndarray, active2d: np.ndarray, active3: np.ndarray, v: np.ndarray,
     dt: float, Vs: np.ndarray, Vcur: np.ndarray, mass: np.ndarray, stress: np.ndarray, state: np.ndarray,
@@ -373,15 +382,50 @@ def remap(
     recomputes from the result). The mesh motion of the Lagrangian phase is v Δt, or ``displacement``
     (node displacements accumulated over several steps, m; ``dt`` is then ignored). Returns (mass lost
     through the top, soil volume capped)."""
-    sweeps = remap_sweeps(
-        hx, hy, hz, active2d, active3, v, dt, Vs, Vcur, mass, stress, state, nmass, fbar, parity, mtiny,
-        rho_lo, rho_hi, displacement,
+    return drain(
+        remap_sweeps(
+            hx, hy, hz, active2d, active3, v, dt, Vs, Vcur, mass, stress, state, nmass, fbar, parity, mtiny,
+            rho_lo, rho_hi, displacement,
+        )
     )  # fmt: skip
+
+
+def drain(sweeps: Generator, act: Callable[[tuple], None] | None = None) -> Any:
+    """Run a generator of :func:`split_sweeps` to its end, handing each event to ``act``; its return value."""
     while True:
         try:
-            next(sweeps)
+            event = next(sweeps)
         except StopIteration as done:
             return done.value
+        if act is not None:
+            act(event)
+
+
+def split_sweeps(
+    order, perm, faces, active, u, dt, phi, Vs, Vcur, mass, stress, state, fbar, rho_lo, rho_hi, m_cur, m_next,
+    v, mtiny,
+):  # fmt: skip
+    """The split remap of every geometry: along each axis of ``order`` in turn, the cells' sweep
+    (:func:`sweep_cells_along` with the mesh motion ``u`` over ``dt`` and the face areas ``faces[axis]``) and
+    then the nodes' (:func:`sweep_nodes_along`: the nodal masses ``m_cur`` into ``m_next``, the velocities ``v``).
+    ``perm[axis]`` transposes the arrays so that the swept axis comes last. A generator, so that a caller can act
+    between the passes: it yields ``("start", axis)``, ``("cells", axis, u, dt)`` after the cell pass and
+    ``("nodes", axis, m_cur)`` (the current nodal masses) after the node pass; returns (mass lost through the top,
+    soil volume capped, the final nodal masses, the other buffer)."""
+    lost = 0.0
+    capped = 0.0
+    for axis in order:
+        yield "start", axis
+        p = perm[axis]
+        lo, ca = sweep_cells_along(p, axis, faces[axis], active, u, dt, phi, Vs, Vcur, mass, stress, state, fbar,
+                                   rho_lo, rho_hi)  # fmt: skip
+        lost += lo
+        capped += ca
+        yield "cells", axis, u, dt
+        sweep_nodes_along(p, fbar, m_cur, m_next, v, mtiny)
+        m_cur, m_next = m_next, m_cur
+        yield "nodes", axis, m_cur
+    return lost, capped, m_cur, m_next
 
 
 def remap_sweeps(
@@ -398,21 +442,10 @@ def remap_sweeps(
     else:
         v_mesh, dt = displacement, 1.0
     volume_change(hx, hy, hz, active2d, v_mesh, dt, Vs, Vcur)
-    lost = 0.0
-    capped = 0.0
-    h = (hx, hy, hz)
-    m_cur, m_next = nmass, np.empty_like(nmass)
-    phi = np.empty_like(Vs)
-    for axis in _ORDERS[parity % 2]:
-        p = _PERM[axis]
-        l, c = sweep_cells_along(p, axis, (h[p[0]], h[p[1]]), active3, v_mesh, dt, phi, Vs, Vcur, mass, stress,
-                                 state, fbar, rho_lo, rho_hi)  # fmt: skip
-        lost += l
-        capped += c
-        yield "cells", axis, v_mesh, dt
-        sweep_nodes_along(p, fbar, m_cur, m_next, v, mtiny)
-        m_cur, m_next = m_next, m_cur
-        yield "nodes", axis, m_cur
+    lost, capped, m_cur, _ = yield from split_sweeps(
+        _ORDERS[parity % 2], _PERM, faces_of((hx, hy, hz), _PERM), active3, v_mesh, dt, np.empty_like(Vs), Vs,
+        Vcur, mass, stress, state, fbar, rho_lo, rho_hi, nmass, np.empty_like(nmass), v, mtiny,
+    )  # fmt: skip
     if m_cur is not nmass:
         nmass[...] = m_cur
     return lost, capped
