@@ -445,17 +445,11 @@ class AxisymmetricBackend(Backend):
     inertia_mode = "axisymmetric"
 
     def __init__(self, scenario: Scenario) -> None:
-        from ..contact.axisym import AxisymmetricPileContact, RigidPileRZ
-        from .axisym_field import AxisymmetricField
+        from ..contact.axisym import RigidPileRZ
 
         super().__init__(scenario)
         self._rigid_type = RigidPileRZ
-        d = scenario.domain
-        grid = rz_grid(scenario)
-        mat = scenario.soil.material
-        f = AxisymmetricField(
-            grid, mat, scaling=scenario.scaling.mass_gravity, settings=solver_settings(scenario)
-        )
+        f = self._make_field(scenario)
         f.fill_below(0.0)
         initialise_geostatic(f, scenario)
         self.field = f
@@ -464,26 +458,34 @@ class AxisymmetricBackend(Backend):
         self.jack_work = 0.0
         p = scenario.pile
         if p is not None:
-            mu = scenario.contact.friction_coefficient(mat)
             if p.type == "rigid":
                 pile = RigidPileRZ(0.5 * p.diameter, -p.initial_embedment)
             else:
                 # the solid pile's steel, or the coupled pile's dummy layer, as r–z rings (bodies.axisym); the
                 # bodies' loop, contact load and coupling are the 3D ones
                 pile = build_pile_body(scenario, symmetry="axisymmetric")
-            self.contact = AxisymmetricPileContact(
-                f,
-                pile,
-                friction=mu,
-                base_friction=scenario.contact.base_friction_coefficient(mat),
-                base=scenario.contact.formulation,
-                rim=scenario.contact.rim,
-            )
+            c, mat = scenario.contact, scenario.soil.material
+            mu, mu_b = c.friction_coefficient(mat), c.base_friction_coefficient(mat)
+            self.contact = self._make_contact(f, pile, mu, mu_b, scenario)
             self.pile = pile
             if p.initial_embedment > 0.0:
                 self.contact.wish_in_place()
-            if d.frame == "pile":
+            if scenario.domain.frame == "pile":
                 self.contact.follow_pile()
+
+    def _make_field(self, scenario: Scenario) -> Any:
+        """The soil field of this geometry (r–z: on the r–z grid)."""
+        from .axisym_field import AxisymmetricField
+
+        mat, S = scenario.soil.material, scenario.scaling.mass_gravity
+        return AxisymmetricField(rz_grid(scenario), mat, scaling=S, settings=solver_settings(scenario))
+
+    def _make_contact(self, field: Any, pile: Any, mu: float, mu_b: float, scenario: Scenario) -> Any:
+        """The ring contact of this geometry between ``field`` and ``pile`` (shaft friction μ, base friction μ_b)."""
+        from ..contact.axisym import AxisymmetricPileContact
+
+        c = scenario.contact
+        return AxisymmetricPileContact(field, pile, friction=mu, base_friction=mu_b, base=c.formulation, rim=c.rim)
 
     def soil_cells(self) -> int:
         return int(self.field.grid.n_cells)
@@ -659,44 +661,26 @@ class CylindricalBackend(AxisymmetricBackend):
     """The cylindrical layout (module docstring); everything but the grid, the field and the outputs is the r–z
     backend's, the inertia check's calibration too (a vertically loaded pile is the r–z run)."""
 
-    def __init__(self, scenario: Scenario) -> None:
-        from ..contact.axisym import RigidPileRZ
-        from ..contact.cylindrical import CylindricalPileContact
+    def _make_field(self, scenario: Scenario) -> Any:
         from ..grid.cylindrical import CylindricalGrid
         from .cylindrical_field import CylindricalField
 
-        Backend.__init__(self, scenario)
-        self._rigid_type = RigidPileRZ
         d = scenario.domain
         self.symmetry = d.symmetry
-        rz = rz_grid(scenario)
         # the sectors tied towards the axis (arcs at least as long as the rings' cells are wide), but not the ring
         # inside the pile's shaft
         shaft = round(0.5 * scenario.pile.diameter / d.fine_size) - 1 if scenario.pile is not None else None
         n = theta_cells(scenario) * (2 if d.symmetry == "half" else 1)
-        grid = CylindricalGrid.from_axisymmetric(rz, n, d.symmetry, coarsen_axis=True, untied_from=shaft)
+        grid = CylindricalGrid.from_axisymmetric(rz_grid(scenario), n, d.symmetry, coarsen_axis=True,
+                                                 untied_from=shaft)  # fmt: skip
         self.extent_factor = 2.0 * math.pi / grid.angle
-        f = CylindricalField(grid, scenario.soil.material, scaling=scenario.scaling.mass_gravity,
-                             settings=solver_settings(scenario))  # fmt: skip
-        f.fill_below(0.0)
-        initialise_geostatic(f, scenario)
-        self.field = f
-        self.head_force = 0.0
-        self.jack_work = 0.0
-        p = scenario.pile
-        if p is not None:
-            mu = scenario.contact.friction_coefficient(scenario.soil.material)
-            if p.type == "rigid":
-                pile = RigidPileRZ(0.5 * p.diameter, -p.initial_embedment)
-            else:
-                pile = build_pile_body(scenario, symmetry="axisymmetric")
-            mu_b = scenario.contact.base_friction_coefficient(scenario.soil.material)
-            self.contact = CylindricalPileContact(f, pile, friction=mu, base_friction=mu_b, rim=scenario.contact.rim)
-            self.pile = pile
-            if p.initial_embedment > 0.0:
-                self.contact.wish_in_place()
-            if d.frame == "pile":
-                self.contact.follow_pile()
+        mat, S = scenario.soil.material, scenario.scaling.mass_gravity
+        return CylindricalField(grid, mat, scaling=S, settings=solver_settings(scenario))
+
+    def _make_contact(self, field: Any, pile: Any, mu: float, mu_b: float, scenario: Scenario) -> Any:
+        from ..contact.cylindrical import CylindricalPileContact
+
+        return CylindricalPileContact(field, pile, friction=mu, base_friction=mu_b, rim=scenario.contact.rim)
 
     def cell_position(self, index: int) -> tuple[float, ...] | None:
         if index < 0:
