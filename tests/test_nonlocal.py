@@ -302,6 +302,26 @@ def test_a_3d_run_with_the_length_steps_and_the_factor_acts(tmp_path):
     assert lam.min() == 1.0 and lam.max() > 1.1
 
 
+@pytest.mark.parametrize("domain", [{"symmetry": "axisymmetric"}, {"symmetry": "quarter"},
+                                    {"symmetry": "quarter", "layout": "tensor"}])  # fmt: skip
+def test_the_factor_is_cell_data_of_a_nonlocal_sand_in_every_geometry(domain):
+    """The output's cell data holds the field's λ as ``nonlocal_factor`` where the sand has a length (r–z, the
+    cylindrical layout, the tensor product), and no such array for a local sand."""
+    from test_axisymmetric_scenario import scenario_dict
+
+    for length in (0.0, 0.06):
+        d = scenario_dict(**domain)
+        d["soil"] = {"model": "hypoplastic", "nonlocal_length": length,
+                     "layers": [{"top": 0.0, "relative_density": 0.9}]}  # fmt: skip
+        backend = build_backend(scenario_from_dict(d))
+        fields = backend.cell_fields()
+        if length > 0.0:
+            assert np.shares_memory(fields["nonlocal_factor"], backend.field.nonlocal_factor)
+            assert fields["nonlocal_factor"].shape == fields["p"].shape
+        else:
+            assert "nonlocal_factor" not in fields
+
+
 @pytest.mark.parametrize(("length", "noted"), [(0.0, False), (0.05, True), (0.1, False)])
 def test_a_length_that_the_fine_cells_do_not_resolve_gets_a_note(tmp_path, length, noted):
     # docs/numerics.md, "Which l": below two cells per l the mean does not regularise (the r–z demo's cells: 0.05 m)

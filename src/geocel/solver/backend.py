@@ -335,10 +335,15 @@ class CartesianBackend(Backend):
         cell = {"stress": body.stress}
         return body.x, body.hexes, cell, {"displacement": body.x - body.x0, "velocity": body.v}
 
+    def cell_fields(self) -> dict[str, np.ndarray]:
+        """Cell data for output: the field's (:meth:`geocel.solver.field.SoilField.cell_fields`; nested columns write
+        each level's)."""
+        return self.field.cell_fields()
+
     def write_fields(self, run_dir: RunDirectory, index: int) -> list[tuple[Path, int]]:
         f = self.field
         soil = write_rectilinear(
-            run_dir.field_path("soil", index), *self._node_axes(), f.cell_fields(), point_data={"velocity": f.v}
+            run_dir.field_path("soil", index), *self._node_axes(), self.cell_fields(), point_data={"velocity": f.v}
         )
         return [(soil, 0)] + (self._write_pile(run_dir, index) if self.pile is not None else [])
 
@@ -611,6 +616,7 @@ class AxisymmetricBackend(Backend):
             d = f.state[..., 1:7]
             nd = np.sqrt(np.sum(d[..., :3] ** 2, axis=-1) + 2 * np.sum(d[..., 3:] ** 2, axis=-1))
             out["rho"] = nd / mat.R
+        out.update(f.nonlocal_fields())
         return out
 
     def write_fields(self, run_dir: RunDirectory, index: int) -> list[tuple[Path, int]]:

@@ -564,6 +564,11 @@ class EulerianField:
         tm["remap"] += t3 - t2
         tm["bookkeeping"] += t4 - t3
 
+    def nonlocal_fields(self) -> dict[str, np.ndarray]:
+        """Cell data of the non-local sand for output: its factor λ = max(1, ‖D‖*/‖D‖) of the last step that updated
+        each cell (1: the local model there); none for a local soil."""
+        return {"nonlocal_factor": self.nonlocal_factor} if self.nonlocal_length > 0 else {}
+
     def tie_nodes(self, a: np.ndarray) -> None:
         """Set the slaved nodes of the node vectors ``a`` (velocities, displacements) from their masters: the
         cylindrical layout's tied sectors; no other grid has slaved nodes."""
@@ -893,4 +898,5 @@ class SoilField(GridField):
             d = self.state[..., 1:7]
             nd = np.sqrt(np.sum(d[..., :3] ** 2, axis=-1) + 2 * np.sum(d[..., 3:] ** 2, axis=-1))
             out["rho"] = nd / self.material.R
+        out.update(self.nonlocal_fields())
         return out
