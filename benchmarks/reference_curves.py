@@ -9,6 +9,9 @@ it across sessions with ``geocel run FILE --out DIR --restart``):
     NUMBA_NUM_THREADS=1 geocel run runs/reference/rigid_12.toml --out runs/reference/rigid_12   # (each of them)
     python benchmarks/reference_curves.py table runs/reference          # writes benchmarks/data/rz_reference_*.csv
 
+``scenarios --base-friction 0`` writes the same series with a smooth base (``[contact] base_friction``); give its
+``table`` another ``--data`` folder.
+
 ``table`` writes, per pile, ``benchmarks/data/rz_reference_<pile>_9m.csv`` in the format of ``--reference``
 (``depth_m, qb_MPa, qs_kPa``: the finest grid's cell-averaged curves every 0.05 m; with three grids also the
 Richardson-extrapolated ``qb_extrapolated_MPa``, ``qs_extrapolated_kPa`` where the observed order is ≥ 0.5) with the grid series' figures
@@ -39,9 +42,12 @@ PROFILE_RADII = (1.0, 1.05, 1.1, 1.15, 1.2, 1.3, 1.4, 1.5, 1.75, 2.0, 2.5, 3.0, 
 FROM, TO = 0.3, 8.9  # m, the compared depths (the start's first 0.3 m left out, as in the grid series)
 
 
-def scenario_text(pile: str, cells: int) -> str:
-    """The template with the pile type, the cell size a/cells, the default (automatic) start and profiles."""
+def scenario_text(pile: str, cells: int, base_friction: float | None = None) -> str:
+    """The template with the pile type, the cell size a/cells, the default (automatic) start and profiles; with
+    ``base_friction`` the base's μ_b (default: the shaft's μ)."""
     text = TEMPLATE.read_text()
+    if base_friction is not None:
+        text = re.sub(r"(?m)^\[contact\]\n", f"[contact]\nbase_friction = {base_friction!r}\n", text, count=1)
     text = re.sub(r'(?m)^type = "\w+"', f'type = "{pile}"', text, count=1)
     text = re.sub(r"(?m)^fine_size = .*$", f"fine_size = {RADIUS / cells!r}", text, count=1)
     text = re.sub(r"(?m)^ramp = .*\n", "", text, count=1)
@@ -50,12 +56,12 @@ def scenario_text(pile: str, cells: int) -> str:
     return text + f"profiles_every = 1.0\nprofile_radii = {list(PROFILE_RADII)}\n"
 
 
-def write_scenarios(out: Path, cells: list[int]) -> None:
+def write_scenarios(out: Path, cells: list[int], base_friction: float | None = None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     for pile in PILES:
         for n in cells:
             path = out / f"{pile}_{n}.toml"
-            path.write_text(scenario_text(pile, n))
+            path.write_text(scenario_text(pile, n, base_friction))
             print(f"NUMBA_NUM_THREADS=1 geocel run {path} --out {out / f'{pile}_{n}'}")
 
 
@@ -122,12 +128,13 @@ def main() -> None:
     s = sub.add_parser("scenarios", help="write the scenario files and print the commands")
     s.add_argument("out", type=Path)
     s.add_argument("--cells", default="3,6,12", help="cells per pile radius, comma-separated")
+    s.add_argument("--base-friction", type=float, default=None, help="μ_b of the base (default: the shaft's μ)")
     t = sub.add_parser("table", help="write the reference curves from the finished runs")
     t.add_argument("runs", type=Path, help="the folder with the run directories <pile>_<cells>")
     t.add_argument("--data", type=Path, default=DATA, help="where to write the CSV files")
     a = p.parse_args()
     if a.what == "scenarios":
-        write_scenarios(a.out, [int(c) for c in a.cells.split(",")])
+        write_scenarios(a.out, [int(c) for c in a.cells.split(",")], a.base_friction)
     else:
         write_table(a.runs, a.data)
 
