@@ -301,14 +301,14 @@ def test_a_runaway_is_a_node_by_soil_that_moved_more_than_a_cell_whatever_its_ma
     assert flagged.sum() == 1 and flagged[0, 1]
 
 
-def test_a_smooth_base_takes_no_radial_force_and_a_cartesian_grid_refuses_base_friction(tmp_path):
+@pytest.mark.parametrize("domain", [{}, {"symmetry": "quarter"}], ids=["rz", "cylindrical"])
+def test_a_smooth_base_takes_no_radial_force(tmp_path, domain):
     """``[contact] base_friction``: 0 leaves the base no tangential force on the soil at any step (a rough base, the
     shaft's μ by default, takes one; in the pile's frame with the split corner the base's radial force is its
-    friction alone); the summary reports both coefficients; a Cartesian grid refuses the key, and a negative value
-    is one line."""
+    friction alone), in r–z and on the cylindrical layout; the summary reports both coefficients."""
     radial = {}
     for name, base in (("smooth", 0.0), ("default", None)):
-        d = scenario_dict(frame="pile")
+        d = scenario_dict(frame="pile", **domain)
         if base is not None:
             d["contact"] = {"base_friction": base}
         sim = Simulation(scenario_from_dict(d), out=tmp_path / name, progress=False, write_fields=False)
@@ -319,6 +319,10 @@ def test_a_smooth_base_takes_no_radial_force_and_a_cartesian_grid_refuses_base_f
     mu = radial["default"][1]["friction_coefficient"]
     assert radial["smooth"][0] == 0.0 and radial["smooth"][1]["base_friction_coefficient"] == 0.0
     assert radial["default"][0] > 0.0 and radial["default"][1]["base_friction_coefficient"] == mu > 0.0
+
+
+def test_a_cartesian_grid_refuses_base_friction():
+    """A Cartesian grid refuses ``[contact] base_friction`` with one line, and a negative value is one line."""
     d = scenario_dict()
     d["domain"].update(symmetry="quarter", layout="tensor")
     d["contact"] = {"base_friction": 0.0}
