@@ -215,8 +215,10 @@ def gather_node_force(i, j, k, active, cf, o0, o1, o2, nx, ny, nz):
     ck − o2]. The forces: f_σ = −V_s σ·∇N_I (one point), f_q = V_s q ∇N_I, and the hourglass f_I = −Σ_α Q_α h_αI
     with h = (ξη, ηζ, ξζ, ξηζ) and Q_α the cell's mass times its resistance per unit mass (so a cell the remap
     has nearly emptied pushes proportionally less). Returns (f_σ, f_q, f_hg) as one flat 9-tuple (a nested one
-    trips Numba's analysis of the parallel loops that call it)."""
-    g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    trips Numba's analysis of the parallel loops that call it). The sums are nine scalars, not a tuple carried
+    through the loop: inlined into a parallel loop, a carried tuple compiled differently from one process to the
+    next (one of the versions, cached, gave the nested columns another result)."""
+    fs0 = fs1 = fs2 = fq0 = fq1 = fq2 = fh0 = fh1 = fh2 = 0.0
     for ci in range(max(i - 1, 0), min(i + 1, nx)):
         xi = 1.0 if ci < i else -1.0
         for cj in range(max(j - 1, 0), min(j + 1, ny)):
@@ -225,8 +227,17 @@ def gather_node_force(i, j, k, active, cf, o0, o1, o2, nx, ny, nz):
             eta = 1.0 if cj < j else -1.0
             for ck in range(max(k - 1, 0), min(k + 1, nz)):
                 zeta = 1.0 if ck < k else -1.0
-                g = add_forces(g, corner_force(cf[ci - o0, cj - o1, ck - o2], xi, eta, zeta), 1.0)
-    return g
+                f = corner_force(cf[ci - o0, cj - o1, ck - o2], xi, eta, zeta)
+                fs0 += f[0]
+                fs1 += f[1]
+                fs2 += f[2]
+                fq0 += f[3]
+                fq1 += f[4]
+                fq2 += f[5]
+                fh0 += f[6]
+                fh1 += f[7]
+                fh2 += f[8]
+    return (fs0, fs1, fs2, fq0, fq1, fq2, fh0, fh1, fh2)
 
 
 @njit(inline="always", **KERNEL_OPTIONS)
