@@ -368,6 +368,10 @@ class NestedBackend(CartesianBackend):
     :class:`~geocel.solver.composite.CompositeField`): levels of tensor-product columns, the pile and its
     contact in the finest; checkpoints and snapshots per level (``soil_L<level>_NNNNN.vtr``)."""
 
+    def cell_fields(self) -> dict[str, np.ndarray]:
+        """Nested columns have no single grid: each level writes its own cell data (:meth:`write_fields`)."""
+        raise NotImplementedError("nested columns: the cell data is per level (levels[L].cell_fields())")
+
     def soil_cells(self) -> int:
         return int(self.field.layout.n_active)
 
