@@ -14,6 +14,7 @@ is as fast or faster).
 from __future__ import annotations
 
 import argparse
+import inspect
 import os
 import subprocess
 import sys
@@ -60,7 +61,10 @@ def cylindrical(mod, rng, np):
     nodes = (nmass, v, np.zeros(v.shape, bool), np.zeros(v.shape), np.zeros(v.shape), np.zeros(v.shape))
     geometry = (hr, np.full(nz, 0.1), np.cumsum(hr) - hr / 2, 0.5 * np.pi / nt, ties)
     args = (*geometry, *cells, *nodes, 9.81, 0.0, 1e-5, 1e-12, np.empty((nr, nt, nz, 27)))
-    return (lambda: mod.cylindrical.advance_nodes_cyl(*args)), v
+    kernel = mod.cylindrical.advance_nodes_cyl
+    if "phase" in inspect.signature(kernel.py_func).parameters:  # (multi-rate levels: all 0, the single-rate step)
+        args += (np.zeros((nr, nz), np.int8), np.zeros((nr + 1, nz + 1), np.int8), 0)
+    return (lambda: kernel(*args)), v
 
 
 def main() -> None:

@@ -70,12 +70,17 @@ def _cells(g, nstate=1):
     )
 
 
+def _levels(g):
+    """The multi-rate levels of the single-rate step (all 0) per (ring, row) of cells and of nodes."""
+    return np.zeros((g.nr, g.nz), np.int8), np.zeros((g.nr + 1, g.nz + 1), np.int8)
+
+
 def _update(g, mat, Vs, mass, c, v, dt, kappa_s=0.0, kappa=0.0):
     nstate = c["state"].shape[-1] - 12
     return update_cells_cyl(
         model_tag(mat.model_id), mat.to_array(), g.rc, g.hr, g.dtheta, g.ties, g.hz, Vs, mass, c["stress"], c["state"], v,
         c["q"], c["hg"], c["modulus"], c["flags"], dt, 0.0, 0.0, kappa, kappa_s, nstate, *mat.strength_line(),
-        mat.substep_strain(0.1), -1, -1, NONE, NONE, np.ones(Vs.shape), False,
+        mat.substep_strain(0.1), -1, -1, NONE, NONE, np.ones(Vs.shape), False, _levels(g)[0], 0, np.zeros(Vs.shape),
     )  # fmt: skip
 
 
@@ -88,7 +93,7 @@ def _nodal_forces(g, Vs, mass, c):
     zero = np.zeros_like(v)
     fix = np.zeros(v.shape, dtype=np.uint8)
     advance_nodes_cyl(g.hr, g.hz, g.rc, g.dtheta, g.ties, Vs, mass, c["stress"], c["q"], c["hg"], nm, v, fix, zero, zero,
-                      zero.copy(), 0.0, 0.0, 1.0, 0.0, np.empty(Vs.shape + (FORCE_FACTORS_CYL,)))  # fmt: skip
+                      zero.copy(), 0.0, 0.0, 1.0, 0.0, np.empty(Vs.shape + (FORCE_FACTORS_CYL,)), *_levels(g), 0)  # fmt: skip
     return nm[..., None] * v, nm
 
 
@@ -547,15 +552,24 @@ def test_an_eccentric_load_with_the_remap_conserves_mass_and_energy():
 
 # --------------------------------------------------------------------------- the pile
 @pytest.mark.parametrize(
-    "rim, frame, n, length",
-    [("corner", "pile", 2, 0.0), ("base", "laboratory", 2, 0.0), ("corner", "pile", 4, 0.0), ("corner", "pile", 2, 0.1)],
+    "rim, frame, n, length, levels",
+    [
+        ("corner", "pile", 2, 0.0, 0),
+        ("base", "laboratory", 2, 0.0, 0),
+        ("corner", "pile", 4, 0.0, 0),
+        ("corner", "pile", 2, 0.1, 0),
+        ("corner", "pile", 2, 0.0, 2),
+        ("corner", "pile", 2, 0.1, 2),
+    ],
 )
-def test_the_jacked_pile_is_the_rz_pile_when_nothing_depends_on_theta(rim, frame, n, length):
+def test_the_jacked_pile_is_the_rz_pile_when_nothing_depends_on_theta(rim, frame, n, length, levels):
     """A rigid pile (a = 0.3 m, 2 cells per radius, μ = 0.364) jacked at 0.5 m/s into hypoplastic sand (S = 10)
     on a quarter in 3 sectors, with the split corner in the pile's frame and with the base's rim in the
     laboratory's: q_b, q_s, the velocities, stresses, energies and mass of every sector are those of the r–z
     run with the same Δt to round-off (the contact's steps on every node line, the corner ring's parts, the
-    pile's cells out of the remap, the grid moving with the base), with no soil inside the pile."""
+    pile's cells out of the remap, the grid moving with the base), with no soil inside the pile. With multi-rate
+    levels (both fields given r–z's cells' stable steps at each cycle's start, so that the levels are the same;
+    the cylindrical cells' own are those of a 3D box) the same, every level in use."""
     from geocel.contact.axisym import AxisymmetricPileContact, RigidPileRZ
     from geocel.contact.cylindrical import CylindricalPileContact
 
@@ -564,7 +578,7 @@ def test_the_jacked_pile_is_the_rz_pile_when_nothing_depends_on_theta(rim, frame
                                  fine_depth=1.0, growth=1.3, max_size=0.4)  # fmt: skip
     g = CylindricalGrid.from_axisymmetric(rz, 3)
     mat = Hypoplastic.fraction_e(nonlocal_length=length)
-    st = dict(bulk_viscosity_linear=0.0, bulk_viscosity_quadratic=0.0, remap_courant=0.0)
+    st = dict(bulk_viscosity_linear=0.0, bulk_viscosity_quadratic=0.0, remap_courant=0.0, multirate_levels=levels)
     a = AxisymmetricField(rz, mat, scaling=10.0, settings=SolverSettings(**st))
     b = CylindricalField(g, mat, scaling=10.0, settings=SolverSettings(**st))
     for f in (a, b):
@@ -577,15 +591,24 @@ def test_the_jacked_pile_is_the_rz_pile_when_nothing_depends_on_theta(rim, frame
         cb.follow_pile()
     dt = min(a.dt, b.dt)
     qa, qb = [], []
+    used = np.zeros(3, dtype=bool)
     for n in range(200):
         a.dt = b.dt = dt
+        if levels and a.multirate_clock[0] == 0:
+            b.cell_dt[...] = a.cell_dt[:, None, :]
         vh = 0.5 * min(1.0, (n + 1) / 50)
         ca.step(vh)
         cb.step(vh)
         qa.append((ca.qb(), ca.qs()))
         qb.append((cb.qb(), cb.qs()))
+        if levels:
+            np.testing.assert_array_equal(b.cell_level, a.cell_level)
+            used[np.unique(a.cell_level[a.Vs > 0])] = True
+    assert used.all() or not levels
     qa, qb = np.array(qa), np.array(qb)
-    tol = 1e-11 if length == 0 else 1e-9  # (the non-local mean sums in another order: round-off grows)
+    # (the non-local mean sums in another order: round-off grows; with levels r–z's sums only the columns the due
+    # cells reach, and reuses the others' factors)
+    tol = 1e-11 if length == 0 else 1e-9 if levels == 0 else 1e-7
     assert qa[-1, 0] > 1e5 and (qa[-1, 1] > 0 or n > 2)
     for c in range(2):  # q_b, q_s
         np.testing.assert_allclose(qb[:, c], qa[:, c], rtol=0, atol=tol * np.abs(qa[:, c]).max())
@@ -596,13 +619,15 @@ def test_the_jacked_pile_is_the_rz_pile_when_nothing_depends_on_theta(rim, frame
     np.testing.assert_allclose(b.stress, np.broadcast_to(a.stress[:, None], b.stress.shape), rtol=0,
                                atol=tol * np.abs(a.stress).max())  # fmt: skip
     for key in ("kinetic", "internal", "hourglass", "external_work", "remap_kinetic_loss"):
-        assert b.energy[key] == pytest.approx(a.energy[key] * g.angle, rel=1e-9)
+        assert b.energy[key] == pytest.approx(a.energy[key] * g.angle, rel=max(tol, 1e-9))
     assert abs(b.mass_error()) < 1e-13 and cb.soil_inside() == 0.0
     assert b.frame_offset == pytest.approx(a.frame_offset, rel=1e-14)
     if length > 0:
         assert a.nonlocal_factor.max() > 1.01  # (the mean acted)
-        np.testing.assert_allclose(b.nonlocal_factor, np.broadcast_to(a.nonlocal_factor[:, None], b.Vs.shape),
-                                   rtol=1e-9)  # fmt: skip
+        # (the cells due in the last step: r–z's keep the factor of their last step; level 0 is due in every one)
+        due = np.broadcast_to((a.cell_level == 0)[:, None], b.Vs.shape)
+        np.testing.assert_allclose(b.nonlocal_factor[due], np.broadcast_to(a.nonlocal_factor[:, None], b.Vs.shape)[due],
+                                   rtol=max(tol, 1e-9))  # fmt: skip
 
 
 def test_ties_must_be_powers_of_two_dividing_the_sectors_and_coarsen_towards_the_axis():

@@ -86,13 +86,15 @@ def test_pile_run_matches_the_standalone_driver_and_writes_a_structured_grid(tmp
         assert b'Name="' + name + b'"' in head
 
 
-@pytest.mark.parametrize("pile_type", ["rigid", "coupled"])
-def test_restart_in_the_pile_frame_gives_the_same_history(tmp_path, pile_type):
-    """In the pile's frame (the split corner ring) with a rigid and a coupled pile: a run stopped after 37 steps
-    and restarted from its checkpoint writes the history of the uninterrupted run exactly."""
+@pytest.mark.parametrize(("pile_type", "levels"), [("rigid", 0), ("coupled", 0), ("rigid", 3)])
+def test_restart_in_the_pile_frame_gives_the_same_history(tmp_path, pile_type, levels):
+    """In the pile's frame (the split corner ring) with a rigid and a coupled pile, and with multi-rate levels
+    (stopped 5 steps into a cycle of 8): a run stopped after 37 steps and restarted from its checkpoint writes
+    the history of the uninterrupted run exactly."""
     d = cylindrical_dict(frame="pile", void_height=0.3, soil_depth=1.2)
     if pile_type == "coupled":
         d["pile"].update(type="coupled")
+    d["solver"] = {"multirate_levels": levels}
     sc = scenario_from_dict(d)
     assert sc.contact.rim == "corner"
     whole = Simulation(sc, out=tmp_path / "whole", progress=False, write_fields=False)
@@ -100,6 +102,9 @@ def test_restart_in_the_pile_frame_gives_the_same_history(tmp_path, pile_type):
     assert sw["status"] == "finished" and abs(sw["soil_mass_error"]) < 1e-12
     part = Simulation(sc, out=tmp_path / "part", progress=False, write_fields=False)
     assert part.run(stop_after_steps=37)["status"] == "interrupted"
+    assert part.field.multirate_clock[0] == (5 if levels else 0)
+    if levels:
+        assert whole.field.cell_level.max() > 0  # (the levels were in use)
     again = Simulation(sc, out=tmp_path / "part", progress=False, write_fields=False)
     assert again.run(restart=True)["steps"] == sw["steps"]
     a = read_history(tmp_path / "whole" / "history.csv").drop(columns="wall_time")
@@ -129,9 +134,9 @@ def test_bad_cylindrical_input_is_one_clear_line(change, needle):
 
 def test_the_default_preset_is_the_rz_model_on_the_cylindrical_layout():
     """``geocel preset deeks-white``: the r–z preset's model (the pile's frame, its split corner, the non-local
-    sand) on a quarter of the cylindrical layout with the paper's coupled pile; a half with ``--symmetry half``, a
-    Cartesian grid in the laboratory's frame with ``--symmetry full`` or ``--layout tensor``; combinations that
-    cannot be are refused with exit code 2."""
+    sand, the multi-rate steps) on a quarter of the cylindrical layout with the paper's coupled pile; a half with
+    ``--symmetry half``, a Cartesian grid in the laboratory's frame (no levels) with ``--symmetry full`` or
+    ``--layout tensor``; combinations that cannot be are refused with exit code 2."""
     import tomllib
 
     from typer.testing import CliRunner
@@ -152,10 +157,11 @@ def test_the_default_preset_is_the_rz_model_on_the_cylindrical_layout():
         assert sc.soil.material == rz.soil.material and sc.soil.material.nonlocal_length == 0.1
         assert sc.pile.type == "coupled" and sc.pile.element_size == rz.pile.element_size
         assert round(0.5 * sc.pile.diameter / sc.domain.fine_size, 9).is_integer()  # (the shaft on a node ring)
+        assert sc.solver.multirate_levels == rz.solver.multirate_levels == 4
     assert preset("--symmetry", "half").domain.layout == "cylindrical"
     for args in (("--symmetry", "full"), ("--layout", "tensor")):
-        d = preset(*args).domain
-        assert (d.layout, d.frame) == ("tensor", "laboratory")
+        sc = preset(*args)
+        assert (sc.domain.layout, sc.domain.frame, sc.solver.multirate_levels) == ("tensor", "laboratory", 0)
     bad = runner.invoke(app, ["preset", "deeks-white", "--layout", "cylindrical", "--symmetry", "axisymmetric"])
     assert bad.exit_code == 2 and "own grid" in bad.output
     bad = runner.invoke(app, ["preset", "deeks-white", "--layout", "cylindrical", "--symmetry", "full"])

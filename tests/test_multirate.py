@@ -1,4 +1,5 @@
-"""Multi-rate time stepping of the r–z step (``[solver] multirate_levels``; geocel.euler.axisym.assign_levels_rz).
+"""Multi-rate time stepping of the ring grids' step (``[solver] multirate_levels``; geocel.euler.axisym.assign_levels_rz;
+the cylindrical layout's against r–z's: tests/test_cylindrical.py).
 
 Checks: the levels never let a cell or a node step beyond its own stable step, and a node advances only when
 all its cells are at its time (the construction's invariants, on random stable steps); a geostatic column that
@@ -138,14 +139,17 @@ def test_a_restart_inside_a_cycle_continues_it_exactly(tmp_path):
     assert part.field.multirate_clock[0] == 5
 
 
-def test_multirate_levels_are_an_option_of_the_axisymmetric_mode():
+def test_multirate_levels_are_an_option_of_the_ring_grids():
+    """r–z and the cylindrical layout (the 3D default for a flat pile) take levels; the Cartesian grids refuse them
+    with one line."""
     d = scenario_dict(frame="pile", void_height=0.25)
     d["domain"]["symmetry"] = "quarter"
-    d["domain"]["frame"] = "laboratory"
     d["solver"] = {"multirate_levels": 2}
+    assert scenario_from_dict(d).domain.layout == "cylindrical"
+    d["domain"].update(frame="laboratory", layout="tensor")
     with pytest.raises(ScenarioError) as err:
         scenario_from_dict(d)
-    assert "multirate_levels" in str(err.value) and "axisymmetric" in str(err.value)
+    assert "multirate_levels" in str(err.value) and "cylindrical" in str(err.value)
     d = scenario_dict(frame="pile", void_height=0.25)
     d["solver"] = {"multirate_levels": 5}
     with pytest.raises(ScenarioError):

@@ -2,7 +2,7 @@
 
 ``deeks-white``: the paper's centrifuge benchmark (see the TOML file next to this module), on the set-up whose q_b
 converges (docs/numerics.md, "Numerical options"): the cylindrical layout in the pile's frame, the split corner,
-the non-local sand (l = 0.1 m). Resolutions (cells per pile radius a = 0.3 m):
+the non-local sand (l = 0.1 m), multi-rate steps (4 levels). Resolutions (cells per pile radius a = 0.3 m):
 
 ==========  ==============  ============  ==========================================
 resolution  cell at pile    fine radius   intent
@@ -102,6 +102,7 @@ def preset_dict(
     if layout in ("tensor", "nested"):
         dom["layout"] = layout
         dom["frame"] = "laboratory"
+        del d["solver"]["multirate_levels"]  # (the Cartesian kernels have no levels)
         d["name"] = f"{d['name']}-{layout}"
         resolutions = CARTESIAN_RESOLUTIONS
     if penetration is not None:

@@ -631,10 +631,10 @@ class Solver(_Table):
         0,
         ge=0,
         le=4,
-        description="multi-rate time stepping in r–z (symmetry = \"axisymmetric\"): cells and nodes whose stable "
-        "step allows it advance every 2, 4, … 2^levels steps over that multiple of Δt (the soil stiffened under "
-        "the pile's base sets Δt for all cells otherwise), the remap once every 2^levels steps; 0: every cell "
-        "and node in every step, -",
+        description="multi-rate time stepping on the ring grids (symmetry = \"axisymmetric\" or layout = "
+        "\"cylindrical\"): cells and nodes whose stable step allows it advance every 2, 4, … 2^levels steps over that "
+        "multiple of Δt (the soil stiffened under the pile's base sets Δt for all cells otherwise), the remap once "
+        "every 2^levels steps; 0: every cell and node in every step, -",
     )
     pile_subcycling: bool = Field(
         True,
@@ -702,17 +702,18 @@ class Scenario(_Table):
             self._check_void_ratios()
         if self.domain.frame == "pile" and self.pile is None:
             raise _invalid(("domain", "frame"), "pile", "the pile's frame needs a [pile]")
-        if self.solver.multirate_levels > 0 and self.domain.symmetry != "axisymmetric":  # (cylindrical: a 3D one)
+        ring = self.domain.symmetry == "axisymmetric" or self.domain.layout == "cylindrical"
+        if self.solver.multirate_levels > 0 and not ring:
             raise _invalid(
                 ("solver", "multirate_levels"),
                 self.solver.multirate_levels,
-                'an option of symmetry = "axisymmetric" (the 3D kernels have no levels yet)',
+                'an option of the ring grids (symmetry = "axisymmetric" or layout = "cylindrical"): the Cartesian '
+                "kernels have no levels",
             )
         if self.output.profiles_every is not None and self.pile is None:
             raise _invalid(("output", "profiles_every"), self.output.profiles_every, "the profiles need a [pile]")
         if self.pile is not None:
             self._check_pile_geometry()
-            ring = self.domain.symmetry == "axisymmetric" or self.domain.layout == "cylindrical"
             if ring:
                 self._check_axisymmetric_pile()
             elif self.contact.rim != "base":

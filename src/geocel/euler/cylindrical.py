@@ -43,6 +43,7 @@ from numba import njit, prange
 
 from ..materials.kernels import scratch_size
 from ..materials.tensor import KERNEL_OPTIONS
+from .axisym import level_active
 from .lagrange import (
     G_FROM_M,
     PHI_MIN,
@@ -198,13 +199,24 @@ def gather_node_force_cyl(i, j, k, cf, ties, nr, nt, nz):
 
 
 @njit(**KERNEL_OPTIONS)
-def _advance_ring(i, cf, ties, nmass, v, fix, vfix, fext, reaction, gravity, a_half, dt, mtiny, nr, nt, nz, e):
+def _advance_ring(
+    i, cf, ties, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt0, mtiny, nr, nt, nz, e, nlevel, phase
+):  # fmt: skip
     """Node ring i of :func:`advance_nodes_cyl` (its parallel loop's body as a function of its own: it compiles in
-    a third less time than inlined into the loop); the ring's energy terms are added to ``e``."""
+    a third less time than inlined into the loop); the ring's energy terms are added to ``e``. A node line not due
+    in the multi-rate step ``phase`` (``nlevel``) keeps its velocity and counts its kinetic energy."""
     buf = np.empty((nt + 1, 9))
     mo = ties[min(i, nr - 1)]  # (i: int64, the caller's cast)
     M = ties[i - 1] if i > 0 else nt
     for k in range(nz + 1):
+        lev = nlevel[i, k]
+        if not level_active(lev, phase):
+            for j in range(0, nt + 1 if i > 0 else 1, M if i > 0 else 1):
+                m = nmass[i, j, k]
+                e[0] += 0.5 * m * (v[i, j, k, 0] ** 2 + v[i, j, k, 1] ** 2 + v[i, j, k, 2] ** 2)
+            continue
+        dt = dt0 * (1 << lev)
+        a_half = 0.5 * damping * dt
         if i == 0:  # the axis: one node
             g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
             for jj in range(0, nt + 1, mo):
@@ -253,7 +265,7 @@ def _advance_ring(i, cf, ties, nmass, v, fix, vfix, fext, reaction, gravity, a_h
 @njit(parallel=True, **KERNEL_OPTIONS)
 def advance_nodes_cyl(
     hr, hz, rc, dth, ties, Vs, mass, stress, q, hg, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt,
-    mtiny, work,
+    mtiny, work, clevel, nlevel, phase,
 ):  # fmt: skip
     """v ← v + Δt f/m with stress, viscous, hourglass, gravity and external forces (N, local components); then
     the boundary conditions (fixed components take ``vfix``, their reaction m (v − v_free)/Δt goes to
@@ -264,6 +276,9 @@ def advance_nodes_cyl(
     group is one cell, the forces of the slaved node lines go to the independent ones (:func:`_fold`, with their
     masses in ``nmass``: :func:`node_mass_cyl`), and the slaved follow (:func:`follow_masters`; their external
     forces and boundary conditions are not applied). ``work``: scratch (nr, nθ, nz, :data:`FORCE_FACTORS_CYL`).
+    Multi-rate as r–z's (:func:`geocel.euler.axisym.advance_nodes_rz`), with the levels per (ring, row) of cells
+    ``clevel`` and of node lines ``nlevel``: a node line of level L advances in the steps ``phase`` that are
+    multiples of 2^L, over 2^L Δt (all levels 0: the single-rate step).
 
     Returns (kinetic energy, work of the stresses, viscous dissipation, hourglass dissipation, work of gravity,
     work of the external forces and reactions), J, as the 3D and r–z kernels."""
@@ -280,13 +295,17 @@ def advance_nodes_cyl(
         if cj % mt != 0:
             continue
         for ck in range(nz):
+            if not level_active(clevel[ci, ck], phase):
+                continue
             vs, mc = group_sums(Vs, mass, ci, cj, ck, mt)
             cell_force_factors_cyl(ci, cj, ck, gr_, gt_, gz_, nn_, vs, mc, stress, q, hg, cf[ci, cj, ck])
     acc = np.empty((nr + 1, 6))
-    a_half = 0.5 * damping * dt
     for i in prange(nr + 1):
         e = np.zeros(6)
-        _advance_ring(np.int64(i), cf, ties, nmass, v, fix, vfix, fext, reaction, gravity, a_half, dt, mtiny, nr, nt, nz, e)
+        _advance_ring(
+            np.int64(i), cf, ties, nmass, v, fix, vfix, fext, reaction, gravity, damping, dt, mtiny, nr, nt, nz, e,
+            nlevel, phase,
+        )  # fmt: skip
         for d in range(6):
             acc[i, d] = e[d]
     t = column_sums(acc)
@@ -325,10 +344,12 @@ def velocity_gradient_cyl(v, i, j, k, hr, rc, dth, hz, si, sk, zi, rb, m):
 @njit(**KERNEL_OPTIONS)
 def _update_column(
     tag, prm, rc, hr, dth, ties, hz, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa,
-    kappa_s, hoff, mf, cf, max_sub, si, sk, zi, rb, nlf, nonlocal_, s2, st2, i, j, mt,
+    kappa_s, hoff, mf, cf, max_sub, si, sk, zi, rb, nlf, nonlocal_, s2, st2, i, j, mt, clevel, phase, cell_dt,
 ):  # fmt: skip
     """Column (i, j) of :func:`update_cells_cyl` (its parallel loop's body as a function of its own, which compiles
-    faster); returns the column's (stable Δt, flat index of the cell governing it)."""
+    faster); returns the column's (stable Δt, flat index of the cell governing it) over its cells due in the
+    multi-rate step ``phase``."""
+    dt0 = dt
     _, nt, nz = Vs.shape
     cij = i * nt + j
     dbuf = np.empty(scratch_size(tag))
@@ -339,6 +360,12 @@ def _update_column(
     r_c = rc[i]
     h_t = r_c * dth * mt
     for k in range(nz):
+        lev = clevel[i, k]
+        if not level_active(lev, phase):
+            for s in range(j, j + mt):
+                flags[i, s, k] = 0  # (the rules are counted once per update)
+            continue
+        dt = dt0 * (1 << lev)
         c = cij * nz + k
         h_z = hz[k]
         vol = h_r * h_t * h_z
@@ -348,6 +375,7 @@ def _update_column(
                 clear_void_cell(stress[i, s, k], hg[i, s, k], state[i, s, k], hoff)
                 q[i, s, k] = 0.0
                 flags[i, s, k] = 0
+                cell_dt[i, s, k] = np.inf
             continue
         L, qh = velocity_gradient_cyl(v, i, j, k, h_r, r_c, dth * mt, h_z, si, sk, zi, rb, mt)
         le = characteristic_length(h_r, h_t if i > 0 else 2.0 * h_t, h_z)  # (the axis ring: its outer arc)
@@ -371,6 +399,8 @@ def _update_column(
             q[i, s, k] = qn
             modulus[i, s, k] = M
             flags[i, s, k] = f
+        for s in range(j, j + mt):
+            cell_dt[i, s, k] = dtc
         if dtc < best:
             best = dtc
             best_c = c
@@ -380,7 +410,7 @@ def _update_column(
 @njit(parallel=True, **KERNEL_OPTIONS)
 def update_cells_cyl(
     tag, prm, rc, hr, dth, ties, hz, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2, kappa, kappa_s,
-    hoff, mf, cf, max_sub, si, sk, zi, rb, nlf, nonlocal_,
+    hoff, mf, cf, max_sub, si, sk, zi, rb, nlf, nonlocal_, clevel, phase, cell_dt,
 ):  # fmt: skip
     """Constitutive update of every soil cell with the strain and spin increments of v^{n+½} (D and W from
     :func:`velocity_gradient_cyl`), the bulk-viscosity pressure q and the hourglass resistance for the next
@@ -389,8 +419,10 @@ def update_cells_cyl(
     zi, rb``: a ring of split nodes (:func:`velocity_gradient_cyl`; si < 0: none, zi and rb then any arrays). A
     tied group (``ties``) is updated once, as one cell of its slots' soil and mass over its angle m Δθ, and its
     result copied to every slot. With ``nonlocal_`` the soil model's nonlinear term is scaled by the non-local
-    factors ``nlf`` (:func:`nonlocal_factor_cyl`). Returns (stable Δt of the cells, flat index of the cell
-    governing it)."""
+    factors ``nlf`` (:func:`nonlocal_factor_cyl`). Multi-rate as r–z's (:func:`geocel.euler.axisym.update_cells_rz`):
+    a cell of level ``clevel`` L (per ring and row) is updated in the steps ``phase`` that are multiples of 2^L,
+    over 2^L Δt, and its stable step goes to ``cell_dt`` (s; inf for void). Returns (stable Δt of the updated
+    cells, flat index of the cell governing it)."""
     nr, nt, nz = Vs.shape
     n = nr * nt * nz
     s2 = stress.reshape((n, 6))
@@ -409,6 +441,7 @@ def update_cells_cyl(
         dts[cij], args[cij] = _update_column(
             tag, prm, rc, hr, dth, ties, hz, Vs, mass, stress, state, v, q, hg, modulus, flags, dt, b1, b2,
             kappa, kappa_s, hoff, mf, cf, max_sub, si, sk, zi, rb, nlf, nonlocal_, s2, st2, np.int64(i), np.int64(j), mt,
+            clevel, phase, cell_dt,
         )  # fmt: skip
     return chunk_minimum(dts, args)
 

@@ -35,14 +35,8 @@ from .field import (
     E_MIN,
     GridField,
     node_spacing,
+    trailing_zeros,
 )
-
-
-def _trailing_zeros(phase: int, levels: int) -> int:
-    """The highest level whose cells update in the step ``phase`` of a multi-rate cycle of 2^``levels`` steps."""
-    if phase == 0:
-        return levels
-    return min((phase & -phase).bit_length() - 1, levels)
 
 
 @dataclass
@@ -75,14 +69,8 @@ class AxisymmetricField(GridField):
         self.remap_split = NO_SPLIT.copy()
         #: the contact's correction to the kinetic energy of the step (J/rad; the parts of a split node)
         self.kinetic_correction = 0.0
-        # multi-rate (settings.multirate_levels > 0; assign_levels_rz): each cell's last stable step (s; 0: not
-        # yet known, level 0), the cells' and nodes' levels of the cycle, and the cycle's clock (the step's
-        # place in it, the cycle's Δt); all levels 0 in a single-rate step
-        self.cell_dt = np.zeros(g.shape)
-        self.cell_level = np.zeros(g.shape, dtype=np.int8)
-        self.node_level = np.zeros((g.nr + 1, g.nz + 1), dtype=np.int8)
-        self.multirate_clock = np.zeros(2)
-        # the columns of the non-local mean per level of the step (_multirate_cycle)
+        self._init_multirate((g.nr, g.nz))
+        # the columns of the non-local mean per level of the step (_assign_levels)
         self._nonlocal_columns = np.full(max(self.settings.multirate_levels, 0) + 1, g.nr, dtype=np.int64)
 
     # the split corner as the ring contact sets it (geocel.contact.axisym), in the cylindrical field's terms: the
@@ -152,36 +140,24 @@ class AxisymmetricField(GridField):
     def _node_axes(self) -> tuple[np.ndarray, ...]:
         return self.grid.r, self.grid.z
 
-    def _multirate_cycle(self, dt: float, phase: int) -> float:
-        """The Δt of a multi-rate step: at a cycle's start, ``dt`` (held for the cycle) and the levels from
-        the cells' last stable steps; inside the cycle, the cycle's Δt (a caller's ``dt`` must equal it)."""
-        clock = self.multirate_clock
-        if phase == 0:
-            clock[1] = dt
-            soil = self.Vs > PHI_MIN * self.volume
-            levels = self.settings.multirate_levels
-            assign_levels_rz(
-                self.settings.safety_factor * self.cell_dt, soil, dt, levels, self.level0_nodes, self.nmass,
-                self.mass_tiny, self.cell_level, self.node_level,
-            )  # fmt: skip
-            if self._nonlocal_weights is not None:
-                # the columns the non-local mean needs in a step whose cells are up to each level: those of the
-                # updating cells and the reach of the outermost (all of them in the cycle's first step)
-                lo, w = self._nonlocal_weights[0]
-                nr = self.grid.nr
-                for lev in range(levels):
-                    cols = np.nonzero((soil & (self.cell_level <= lev)).any(axis=1))[0]
-                    last = int(cols[-1]) if cols.size else 0
-                    self._nonlocal_columns[lev] = min(nr, int(lo[last]) + w.shape[1])
-                self._nonlocal_columns[levels] = nr
-            return dt
-        if abs(dt - clock[1]) > 1e-9 * clock[1]:
-            raise ValueError(
-                f"multi-rate step {phase} of its cycle with Δt = {dt:.6g} s: the cycle's Δt is {clock[1]:.6g} s (a "
-                "pile body whose own stable step governs and changes; set [solver] pile_subcycling = true or "
-                "multirate_levels = 0)"
-            )
-        return float(clock[1])
+    def _assign_levels(self, dt: float) -> None:
+        """:func:`geocel.euler.axisym.assign_levels_rz`, and the columns the non-local mean needs in a step whose
+        cells are up to each level: those of the updating cells and the reach of the outermost (all of them in the
+        cycle's first step)."""
+        soil = self.Vs > PHI_MIN * self.volume
+        levels = self.settings.multirate_levels
+        assign_levels_rz(
+            self.settings.safety_factor * self.cell_dt, soil, dt, levels, self.level0_nodes, self.nmass,
+            self.mass_tiny, self.cell_level, self.node_level,
+        )  # fmt: skip
+        if self._nonlocal_weights is not None:
+            lo, w = self._nonlocal_weights[0]
+            nr = self.grid.nr
+            for lev in range(levels):
+                cols = np.nonzero((soil & (self.cell_level <= lev)).any(axis=1))[0]
+                last = int(cols[-1]) if cols.size else 0
+                self._nonlocal_columns[lev] = min(nr, int(lo[last]) + w.shape[1])
+            self._nonlocal_columns[levels] = nr
 
     def state_replaced(self) -> None:
         """The state arrays were overwritten: the multi-rate cycle's non-local values are to be computed anew."""
@@ -189,10 +165,10 @@ class AxisymmetricField(GridField):
 
     def _nonlocal_factors(self, phase: int | None) -> None:
         """The non-local factors of the cells that update in the step ``phase`` of a multi-rate cycle (None: all
-        cells), from the first columns that hold the reach of every such cell (:meth:`_multirate_cycle`): the
+        cells), from the first columns that hold the reach of every such cell (:meth:`_assign_levels`): the
         mean of a cell takes in the columns within its reach only, so its factor is the one over the whole grid."""
         sc = self._nonlocal_scratch
-        columns = None if phase is None else self._nonlocal_columns[_trailing_zeros(phase, self.settings.multirate_levels)]
+        columns = None if phase is None else self._nonlocal_columns[trailing_zeros(phase, self.settings.multirate_levels)]
         # inside a cycle whose first step computed every cell, the cells not due keep their values (none of their
         # nodes has moved since they were last due, and Vs changes only in the remap at the cycle's end)
         reuse = phase is not None and phase > 0 and self._nonlocal_cycle == self.step_count - phase
@@ -201,13 +177,6 @@ class AxisymmetricField(GridField):
             self.split, columns, None if phase is None else (self.cell_level, phase), reuse,
         )  # fmt: skip
         self._nonlocal_cycle = self.step_count if phase == 0 else self._nonlocal_cycle if reuse else -1
-
-    def _multirate_dt(self) -> tuple[float, int]:
-        """The smallest stable step of the soil cells at a cycle's end (s) and the cell it belongs to."""
-        soil = self.Vs > PHI_MIN * self.volume
-        dtc = np.where(soil & (self.cell_dt > 0.0), self.cell_dt, np.inf)
-        arg = int(np.argmin(dtc))
-        return float(dtc.ravel()[arg]), arg
 
     def _lump_bottom_rows(self) -> None:
         """The lumped masses of the two node rows around the refilled bottom cells (:func:`node_mass_rz` on

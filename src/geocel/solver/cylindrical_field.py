@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..euler.axisym import assign_levels_rz
 from ..euler.cylindrical import (
     FORCE_FACTORS_CYL,
     advance_nodes_cyl,
@@ -25,7 +26,7 @@ from ..euler.cylindrical import (
     update_cells_cyl,
 )
 from ..euler.cylindrical_remap import remap_cyl, tensor_offsets
-from ..euler.lagrange import characteristic_length
+from ..euler.lagrange import PHI_MIN, characteristic_length
 from ..grid.cylindrical import CylindricalGrid
 from ..materials.tensor import KERNEL_OPTIONS
 from .field import E_MAX, E_MIN, GridField, node_spacing
@@ -82,14 +83,15 @@ class CylindricalField(GridField):
         self.remap_split_r = np.zeros(g.ntheta + 1)
         #: the contact's correction to the kinetic energy of the step (J; the parts of the split nodes)
         self.kinetic_correction = 0.0
+        self._init_multirate((g.nr, g.nz))
 
     # --- what the cylindrical geometry supplies to the step (geocel.solver.field.EulerianField) -----------------
     def nodal_pass(self, dt: float, phase: int = 0) -> tuple[float, ...]:
-        """:func:`geocel.euler.cylindrical.advance_nodes_cyl`."""
+        """:func:`geocel.euler.cylindrical.advance_nodes_cyl` (the node lines due in the multi-rate step ``phase``)."""
         return advance_nodes_cyl(
             self.hr, self.hz, self.rc, self.dtheta, self.grid.ties, self.Vs, self.mass, self.stress, self.q, self.hg, self.nmass,
             self.v, self.fix, self.prescribed, self.external_force, self.reaction, self.gravity, self.damping, dt,
-            self.mass_tiny, self._force_factors,
+            self.mass_tiny, self._force_factors, self.cell_level, self.node_level, phase,
         )  # fmt: skip
 
     def tie_nodes(self, a: np.ndarray) -> None:
@@ -100,7 +102,8 @@ class CylindricalField(GridField):
         self.tie_nodes(self.v)
 
     def cell_pass(self, dt: float, phase: int = 0) -> tuple[float, int]:
-        """The non-local factors (a model with a length) and :func:`geocel.euler.cylindrical.update_cells_cyl`."""
+        """The non-local factors (a model with a length; of every cell, also those not due) and
+        :func:`geocel.euler.cylindrical.update_cells_cyl` of the cells due in the multi-rate step ``phase``."""
         st = self.settings
         nonlocal_ = self._nonlocal_weights is not None
         if nonlocal_:
@@ -114,7 +117,18 @@ class CylindricalField(GridField):
             self.state, self.v, self.q, self.hg, self.modulus, self.flags, dt, st.bulk_viscosity_linear,
             st.bulk_viscosity_quadratic, st.hourglass, st.hourglass_stiffness, self.nstate, *self._strength,
             self._max_substep, self.split_ring[0], self.split_ring[1], self.split_z, self.split_r,
-            self.nonlocal_factor, nonlocal_,
+            self.nonlocal_factor, nonlocal_, self.cell_level, phase, self.cell_dt,
+        )  # fmt: skip
+
+    def _assign_levels(self, dt: float) -> None:
+        """r–z's levels (:func:`geocel.euler.axisym.assign_levels_rz`) per (ring, row), from the smallest stable
+        step round each ring: every sector of a ring steps with its slowest (a load that varies round the axis
+        stiffens one side; the levels stay those of the whole ring)."""
+        soil = self.Vs > PHI_MIN * self.volume
+        ring_dt = np.where(soil, self.cell_dt, np.inf).min(axis=1)
+        assign_levels_rz(
+            self.settings.safety_factor * ring_dt, soil.any(axis=1), dt, self.settings.multirate_levels,
+            self.level0_nodes, self.nmass.max(axis=1), self.mass_tiny, self.cell_level, self.node_level,
         )  # fmt: skip
 
     def _remap_kernel(self, dt: float, order: int, displacement: np.ndarray) -> tuple[float, float]:

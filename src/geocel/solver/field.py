@@ -228,7 +228,7 @@ class SolverSettings:
     #: largest strain of one explicit substep of the soil model, as a fraction of its strain scale
     #: (hypoplastic: R); see :meth:`geocel.config.materials._Material.substep_strain`
     soil_substep: float = 0.1
-    #: multi-rate levels of the r–z step (cells and nodes advance every 1, 2, … 2^levels steps); 0: single rate
+    #: multi-rate levels of the ring grids' step (cells and nodes advance every 1, 2, … 2^levels steps); 0: single rate
     multirate_levels: int = 0
 
 
@@ -519,7 +519,7 @@ class EulerianField:
         pass, then the remap when the accumulated node displacements reach ``remap_courant`` of a cell (every step
         with 0, never with ``np.inf``; LS-DYNA's advection cycles: the Lagrangian steps in between keep the
         material on the grid it started from and one remap with the summed displacements moves everything, mass
-        conserved exactly). With multi-rate levels (``settings.multirate_levels``, r–z) one step of a cycle: only
+        conserved exactly). With multi-rate levels (``settings.multirate_levels``, the ring grids) one step of a cycle: only
         the cells and nodes whose level is due advance, and the remap waits for the cycle's end. ``parity``: the
         remap's sweep order (default: alternating with the remap count). Raises :class:`InstabilityError`."""
         st = self.settings
@@ -733,6 +733,13 @@ class EulerianField:
         self.frame_offset, self.frame_velocity, self.inflow_mass, self.refill_offset = values
 
 
+def trailing_zeros(phase: int, levels: int) -> int:
+    """The highest level whose cells update in the step ``phase`` of a multi-rate cycle of 2^``levels`` steps."""
+    if phase == 0:
+        return levels
+    return min((phase & -phase).bit_length() - 1, levels)
+
+
 @dataclass
 class GridField(EulerianField):
     """A soil field on one grid (``grid``, of the geometry's kind), of ``material`` at the MGS factor ``scaling``.
@@ -747,6 +754,43 @@ class GridField(EulerianField):
     scaling: float = 1.0
     settings: SolverSettings = field(default_factory=SolverSettings)
     damping: float = 0.0
+
+    # --- multi-rate steps (the ring geometries; settings.multirate_levels > 0) ---------------------------------
+    def _init_multirate(self, level_shape: tuple[int, int]) -> None:
+        """Each cell's last stable step (s; 0: not yet known, level 0), the levels of the cycle per (ring, row) of
+        cells and of nodes (``level_shape`` cells; the cylindrical layout's sectors share their ring's), and the
+        cycle's clock (the step's place in it, the cycle's Δt); all levels 0 in a single-rate step."""
+        self.cell_dt = np.zeros(self.Vs.shape)
+        self.cell_level = np.zeros(level_shape, dtype=np.int8)
+        self.node_level = np.zeros((level_shape[0] + 1, level_shape[1] + 1), dtype=np.int8)
+        self.multirate_clock = np.zeros(2)
+
+    def _assign_levels(self, dt: float) -> None:
+        """The levels of the next cycle of Δt = ``dt`` from the cells' last stable steps (the geometry's)."""
+        raise NotImplementedError(f"{type(self).__name__} has no multi-rate levels (multirate_levels = 0)")
+
+    def _multirate_cycle(self, dt: float, phase: int) -> float:
+        """The Δt of a multi-rate step: at a cycle's start, ``dt`` (held for the cycle) and the levels from
+        the cells' last stable steps; inside the cycle, the cycle's Δt (a caller's ``dt`` must equal it)."""
+        clock = self.multirate_clock
+        if phase == 0:
+            clock[1] = dt
+            self._assign_levels(dt)
+            return dt
+        if abs(dt - clock[1]) > 1e-9 * clock[1]:
+            raise ValueError(
+                f"multi-rate step {phase} of its cycle with Δt = {dt:.6g} s: the cycle's Δt is {clock[1]:.6g} s (a "
+                "pile body whose own stable step governs and changes; set [solver] pile_subcycling = true or "
+                "multirate_levels = 0)"
+            )
+        return float(clock[1])
+
+    def _multirate_dt(self) -> tuple[float, int]:
+        """The smallest stable step of the soil cells at a cycle's end (s) and the cell it belongs to."""
+        soil = self.Vs > PHI_MIN * self.volume
+        dtc = np.where(soil & (self.cell_dt > 0.0), self.cell_dt, np.inf)
+        arg = int(np.argmin(dtc))
+        return float(dtc.ravel()[arg]), arg
 
 
 @dataclass
