@@ -118,11 +118,6 @@ class BeamSection:
         """Shear modulus G = E/(2(1+ν)) (Pa)."""
         return self.E / (2.0 * (1.0 + self.nu))
 
-    @property
-    def wave_speed(self) -> float:
-        """Bar wave speed c = √(E/ρ) (m/s)."""
-        return float(np.sqrt(self.E / self.density))
-
     @classmethod
     def solid_circle(cls, diameter: float, E: float, nu: float, density: float) -> BeamSection:
         """Solid circular section of diameter D (m); κ = 6(1+ν)/(7+6ν) (Cowper 1966)."""

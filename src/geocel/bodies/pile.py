@@ -122,11 +122,6 @@ class PileBody:
     def end_step(self, dt: float) -> None:
         """Called after the substeps that cover the soil step ``dt`` (s)."""
 
-    @property
-    def tip_displacement(self) -> float:
-        """Downward displacement of the tip (m)."""
-        return self.geometry.z_tip - self.surface().z_apex
-
     def kinetic_energy(self, v_ref: float = 0.0) -> float:
         """Kinetic energy (J) of the modelled part relative to a vertical velocity ``v_ref`` (m/s, + up):
         with the jacking velocity as reference it is the energy of the pile's own vibration, which is what

@@ -673,12 +673,3 @@ class SolidBody(ExplicitBody):
         tr = s[:, 0] + s[:, 1] + s[:, 2]
         vol = self._volumes(self.x)
         return float(np.sum(vol * ((1.0 + self.nu) * ss - self.nu * tr * tr)) / (2.0 * self.E))
-
-    def gradient_operators(self) -> np.ndarray:
-        """B (m, 8, 3) (m²) of every element at the current configuration (for analysis and tests)."""
-        out = np.empty((self.n_elements, 8, 3))
-        B = np.empty((8, 3))
-        for e in range(self.n_elements):
-            gradient_operator(self.x[self.hexes[e]], B)
-            out[e] = B
-        return out

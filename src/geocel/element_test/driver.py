@@ -38,10 +38,6 @@ STRESS_COLUMNS = ["sig_xx", "sig_yy", "sig_zz", "sig_xy", "sig_xz", "sig_yz"]
 DELTA_COLUMNS = ["dexx", "deyy", "dezz", "dexy", "dexz", "deyz"]
 
 
-class ElementTestError(RuntimeError):
-    """A step of the path could not be solved (e.g. a stress target beyond failure)."""
-
-
 @dataclass
 class Step:
     """Six linear control rows A_e Δε + A_s Δσ = b for one step (SI units)."""
@@ -584,10 +580,3 @@ def _cyclic_segments(
             n_up = 2 * n_quarter if c < cycles - 1 else n_quarter
             segs.append(Segment(triaxial_stress_step(+d, drained), n_up, label=f"cycle {c + 1} up"))
     return segs
-
-
-def dilatancy_ratio(result: ElementTestResult, i: int) -> float:
-    """−ε̇_v/ε̇_a between records i−1 and i (geotechnical reading)."""
-    dev = result.volumetric_strain[i] - result.volumetric_strain[i - 1]
-    dea = result.axial_strain[i] - result.axial_strain[i - 1]
-    return -dev / dea if dea != 0 else math.nan

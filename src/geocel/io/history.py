@@ -72,7 +72,6 @@ class HistoryWriter:
                 raise ValueError(f"column name {c!r} must be non-empty without commas, quotes or newlines")
         self._index = {c: i for i, c in enumerate(self.columns)}
         self.fsync_interval = float(fsync_interval)
-        self.rows_written = 0
         header = ",".join(self.columns) + "\n"
 
         if append and self.path.is_file() and self.path.stat().st_size > 0:
@@ -110,7 +109,6 @@ class HistoryWriter:
                 raise ValueError(f"history column {key!r} is not one of {self.columns}")
             fields[i] = format_value(value)
         self._write((",".join(fields) + "\n").encode())
-        self.rows_written += 1
         now = time.monotonic()
         if now - self._last_sync >= self.fsync_interval:
             os.fsync(self._fd)

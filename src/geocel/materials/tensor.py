@@ -55,51 +55,6 @@ def det(a):
     )
 
 
-@njit(inline="always", **KERNEL_OPTIONS)
-def second_invariant(a):
-    """Sum of the principal 2x2 minors (I2 of the characteristic polynomial)."""
-    return a[0] * a[1] + a[1] * a[2] + a[0] * a[2] - a[3] * a[3] - a[4] * a[4] - a[5] * a[5]
-
-
-@njit(cache=True)
-def all_principal_negative(a, tol):
-    """True when every principal value of a is < -tol (strictly compressive).
-
-    Uses the sign rule for the characteristic polynomial of a symmetric tensor: the eigenvalues of
-    b = -a - tol·I are all positive iff I1(b), I2(b), I3(b) are all positive. No eigen-solve needed.
-    """
-    b0 = -a[0] - tol
-    b1 = -a[1] - tol
-    b2 = -a[2] - tol
-    i1 = b0 + b1 + b2
-    i2 = b0 * b1 + b1 * b2 + b0 * b2 - a[3] * a[3] - a[4] * a[4] - a[5] * a[5]
-    # det(b): the off-diagonals of b are −a12, −a13, −a23 (the triple product's sign matters)
-    i3 = b0 * (b1 * b2 - a[5] * a[5]) - a[3] * (a[3] * b2 + a[5] * a[4]) - a[4] * (a[3] * a[5] + b1 * a[4])
-    return i1 > 0.0 and i2 > 0.0 and i3 > 0.0
-
-
-@njit(cache=True)
-def to_matrix(a, m):
-    """Write the 6-vector a into the 3x3 array m."""
-    m[0, 0] = a[0]
-    m[1, 1] = a[1]
-    m[2, 2] = a[2]
-    m[0, 1] = m[1, 0] = a[3]
-    m[0, 2] = m[2, 0] = a[4]
-    m[1, 2] = m[2, 1] = a[5]
-
-
-@njit(cache=True)
-def from_matrix(m, a):
-    """Write the symmetric part of the 3x3 array m into the 6-vector a."""
-    a[0] = m[0, 0]
-    a[1] = m[1, 1]
-    a[2] = m[2, 2]
-    a[3] = 0.5 * (m[0, 1] + m[1, 0])
-    a[4] = 0.5 * (m[0, 2] + m[2, 0])
-    a[5] = 0.5 * (m[1, 2] + m[2, 1])
-
-
 @njit(cache=True)
 def hughes_winget(dw, q):
     """Rotation Q = (I - ½ΔW)⁻¹ (I + ½ΔW) of a spin increment dw = (W12, W13, W23), written into q.

@@ -64,10 +64,6 @@ def _rel(computed: float, reference: float) -> float:
     return abs(computed / reference - 1.0)
 
 
-def _pct(x: float) -> str:
-    return f"{100 * x:+.2f} %"
-
-
 # --------------------------------------------------------------------------------------------- the checks
 def shield_punch(symmetry: str, cells_per_radius: int = 8) -> list[Outcome]:
     """Shield (1955): the smooth rigid punch on weightless Tresca soil, as a scenario in the default set-up."""
