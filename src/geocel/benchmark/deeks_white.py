@@ -233,7 +233,7 @@ def plan_benchmark(
         states[name] = variant_state(out / name, sc, rerun)
     return BenchmarkPlan(
         out, resolution, penetration, velocity, todo, states, ref,
-        f"measured ({Path(reference).name})" if reference is not None else None, rerun, symmetry, layout,
+        f"the reference curve ({Path(reference).name})" if reference is not None else None, rerun, symmetry, layout,
     )  # fmt: skip
 
 
@@ -347,7 +347,7 @@ def write_results(
     if reference is not None:
         ref = reference if isinstance(reference, pd.DataFrame) else read_reference(reference)
         ref_name = reference_name or (
-            f"measured ({Path(reference).name})" if not isinstance(reference, pd.DataFrame) else "measured"
+            f"the reference curve ({Path(reference).name})" if not isinstance(reference, pd.DataFrame) else "the reference curve"
         )
     elif "conventional-S1" in hist:
         h = hist["conventional-S1"]
