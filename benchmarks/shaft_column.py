@@ -11,7 +11,11 @@ For r–z runs in the pile's frame (``checkpoint.npz`` and ``config.toml``):
 * **excess volume** u(w) = Σ (e − e_far)/(1 + e_far) h_r r_c/R over the cells within w of the shaft, at each
   height h/R above the tip (e_far: the void ratio 12 pile radii out at that height): the radial displacement,
   per unit shaft area, that the loosening or densifying of that layer stands for. A layer one cell wide gives
-  u ∝ the cell size.
+  u ∝ the cell size;
+* **the shaft's force**: the corner node's share of the shaft's friction (its tributary length is half a cell, so
+  a share ∝ the cell is an O(h) part of q_s), the slip ratio |f_t|/(μ f_n) of the shaft nodes (1: full slip), and,
+  from ``profiles.csv`` where the run wrote one, the mean normal stress on the embedded shaft at each output
+  (trapezoidal over the node rows above the corner: q_s/μ without the corner node).
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from geocel.config.scenario import load_scenario
 from geocel.solver.build import rz_grid
@@ -57,6 +62,32 @@ def column(run: Path, heights: list[float], widths: list[float]) -> None:
               + ", ".join(f"{w:g} m: {u:.1f}" for w, u in zip(widths, us, strict=True)))  # fmt: skip
 
 
+def shaft_force(run: Path) -> None:
+    sc = load_scenario(run / "config.toml")
+    c = np.load(run / "checkpoint.npz", allow_pickle=True)
+    ft, fn = np.abs(c["pile_shaft_friction"]), np.abs(c["pile_shaft_normal"])
+    on = np.nonzero(ft)[0]
+    if on.size:
+        mu = sc.friction_coefficient()
+        slip = ft[on] / np.maximum(mu * fn[on], 1e-30)
+        print(
+            f"  shaft force: corner node {100 * ft[on[0]] / ft.sum():.1f} % of the friction (next node "
+            f"{100 * ft[on[1]] / ft.sum():.1f} %); slip ratio |f_t|/(μ f_n) {slip.min():.3f}–{slip.max():.3f}"
+        )
+    prof = run / "profiles.csv"
+    if prof.is_file():
+        p = pd.read_csv(prof, comment="#")
+        p = p[(p.location == "shaft") & (p.depth > 0.0) & (p.h_over_R >= 0.0)]
+        means = []
+        for _, g in p.groupby("step"):
+            g = g.sort_values("depth")
+            if len(g) > 2:
+                z, sr = g.depth.to_numpy(), g.sigma_r.to_numpy()
+                sr = np.sum(0.5 * (sr[1:] + sr[:-1]) * np.diff(z)) / (z[-1] - z[0])
+                means.append(f"{g.tip_depth.iloc[0]:.2f} m: {sr / 1e3:.2f}")
+        print("  mean normal stress on the shaft (kPa) at tip depths " + ", ".join(means))
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("runs", nargs="+", type=Path)
@@ -69,6 +100,7 @@ def main() -> None:
     a = p.parse_args()
     for run in a.runs:
         column(run, [float(x) for x in a.h_over_r.split(",")], [float(x) for x in a.widths.split(",")])
+        shaft_force(run)
 
 
 if __name__ == "__main__":
