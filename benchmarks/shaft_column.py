@@ -32,12 +32,8 @@ from geocel.solver.build import rz_grid
 FULL = 0.98  # a cell with less soil than this counts as part-filled
 
 
-def column(run: Path, heights: list[float], widths: list[float]) -> None:
-    sc = load_scenario(run / "config.toml")
-    if sc.domain.symmetry != "axisymmetric" or sc.domain.frame != "pile":
-        raise SystemExit(f"{run}: an r–z run in the pile's frame is needed")
+def column(run: Path, sc, c, heights: list[float], widths: list[float]) -> None:
     g = rz_grid(sc)
-    c = np.load(run / "checkpoint.npz", allow_pickle=True)
     phi = c["Vs"] / g.cell_volumes()
     e = c["state"][:, :, 0]
     a = 0.5 * sc.pile.diameter
@@ -62,12 +58,10 @@ def column(run: Path, heights: list[float], widths: list[float]) -> None:
               + ", ".join(f"{w:g} m: {u:.1f}" for w, u in zip(widths, us, strict=True)))  # fmt: skip
 
 
-def shaft_force(run: Path) -> None:
-    sc = load_scenario(run / "config.toml")
-    c = np.load(run / "checkpoint.npz", allow_pickle=True)
+def shaft_force(run: Path, sc, c) -> None:
     ft, fn = np.abs(c["pile_shaft_friction"]), np.abs(c["pile_shaft_normal"])
     on = np.nonzero(ft)[0]
-    if on.size:
+    if on.size > 1:
         mu = sc.friction_coefficient()
         slip = ft[on] / np.maximum(mu * fn[on], 1e-30)
         print(
@@ -99,8 +93,12 @@ def main() -> None:
     )
     a = p.parse_args()
     for run in a.runs:
-        column(run, [float(x) for x in a.h_over_r.split(",")], [float(x) for x in a.widths.split(",")])
-        shaft_force(run)
+        sc = load_scenario(run / "config.toml")
+        if sc.domain.symmetry != "axisymmetric" or sc.domain.frame != "pile":
+            raise SystemExit(f"{run}: an r–z run in the pile's frame is needed")
+        c = np.load(run / "checkpoint.npz", allow_pickle=True)
+        column(run, sc, c, [float(x) for x in a.h_over_r.split(",")], [float(x) for x in a.widths.split(",")])
+        shaft_force(run, sc, c)
 
 
 if __name__ == "__main__":
